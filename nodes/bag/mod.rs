@@ -1,0 +1,1 @@
+//! rosbag2 MCAP bags: streaming reader and writer.

@@ -1,0 +1,5 @@
+//! The stereocal node runtime: ROS 2 glue (parameters, remapping, QoS, TF), rosbag2
+//! bag source and sink, conversions between messages and vision types, and the
+//! pipeline stages that nodes and the offline CLI share.
+
+pub mod bag;

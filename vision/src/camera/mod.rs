@@ -1,0 +1,44 @@
+//! Camera models: pinhole intrinsics with a lens distortion model, projection of
+//! camera-frame points to pixels, and the distortion function on normalized coordinates.
+//!
+//! Conventions: the camera frame is x right, y down, z forward (optical axis), in metres;
+//! pixel centres are at integer coordinates; a normalized coordinate is `(X/Z, Y/Z)`.
+
+mod distortion;
+mod intrinsics;
+
+pub use distortion::{Distortion, DistortionModel};
+pub use intrinsics::Intrinsics;
+
+use nalgebra::{Point2, Point3, Vector2};
+
+/// A calibrated camera: image size, pinhole intrinsics and lens distortion.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraModel {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Focal lengths and principal point.
+    pub intrinsics: Intrinsics,
+    /// Lens distortion.
+    pub distortion: Distortion,
+}
+
+impl CameraModel {
+    /// Projects a point in the camera frame to a pixel, or `None` when the point is
+    /// not in front of the camera (`z <= 0`).
+    pub fn project(&self, point_in_camera: &Point3<f64>) -> Option<Point2<f64>> {
+        if point_in_camera.z <= 0.0 {
+            return None;
+        }
+        let normalized = Vector2::new(
+            point_in_camera.x / point_in_camera.z,
+            point_in_camera.y / point_in_camera.z,
+        );
+        Some(
+            self.intrinsics
+                .pixel_from_normalized(&self.distortion.distort(&normalized)),
+        )
+    }
+}

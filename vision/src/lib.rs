@@ -1,0 +1,9 @@
+//! Geometry and image core of stereocal. Knows nothing of ROS: usable on its own.
+//!
+//! Conventions: pixel centres at integer coordinates (OpenCV and ROS); metres,
+//! radians and seconds; transforms named `a_from_b` map points in frame b to frame a.
+
+pub mod camera;
+pub mod image;
+pub mod rectify;
+pub mod synth;

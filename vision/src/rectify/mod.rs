@@ -1,0 +1,1 @@
+//! Stereo rectification (Bouguet), undistort/rectify maps and remap.
