@@ -3,3 +3,4 @@
 //! pipeline stages that nodes and the offline CLI share.
 
 pub mod bag;
+pub mod cli;

@@ -1,0 +1,2 @@
+//! The offline commands of the `stereocal` binary, one module per command; each exposes
+//! its clap `Args` and a `run` function.
