@@ -1,2 +1,19 @@
 //! ROS 2 message types of stereocal, their CDR encoding and `ros2msg` schemas, and
 //! camera_info files.
+//!
+//! Modules are named for ROS packages (`sensor_msgs::Image`, `std_msgs::Header`, ...);
+//! every struct has the exact field order and types of its ROS 2 definition, so
+//! [`cdr::to_bytes`] (or any CDR serde serializer) gives the bytes ROS 2 puts on the
+//! wire, and each implements [`RosMessage`] for its type name and schema.
+
+pub mod builtin_interfaces;
+pub mod cdr;
+pub mod geometry_msgs;
+pub mod ros_message;
+pub mod sensor_msgs;
+pub mod std_msgs;
+pub mod std_srvs;
+pub mod stereo_msgs;
+pub mod tf2_msgs;
+
+pub use ros_message::RosMessage;

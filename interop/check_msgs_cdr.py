@@ -1,0 +1,139 @@
+"""CDR bytes of stereocal-msgs types, produced independently by the `rosbags` library.
+
+Builds one sample of every message type stereocal-msgs defines, serializes it with
+rosbags' ROS 2 Humble typestore (`serialize_cdr`), and compares with the fixtures in
+msgs/tests/fixtures/ (`--write` regenerates them). The Rust tests in
+msgs/tests/cdr_fixtures.rs build the same samples and assert identical bytes.
+
+Services are not in rosbags' typestore: their request/response types are registered
+from their .msg field text; the empty Trigger request uses std_msgs/Empty, which
+follows the same IDL rule (one placeholder byte).
+
+Usage: .venv/bin/python interop/check_msgs_cdr.py [--write]
+"""
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+from rosbags.typesys import Stores, get_typestore, get_types_from_msg
+
+FIXTURES = Path(__file__).resolve().parent.parent / 'msgs' / 'tests' / 'fixtures'
+
+ts = get_typestore(Stores.ROS2_HUMBLE)
+ts.register(get_types_from_msg('sensor_msgs/CameraInfo camera_info', 'sensor_msgs/msg/SetCameraInfo_Request'))
+ts.register(get_types_from_msg('bool success\nstring status_message', 'sensor_msgs/msg/SetCameraInfo_Response'))
+ts.register(get_types_from_msg('bool success\nstring message', 'std_srvs/msg/Trigger_Response'))
+T = ts.types
+
+
+def time():
+    return T['builtin_interfaces/msg/Time'](sec=1700000000, nanosec=123456789)
+
+
+def header(frame_id):
+    return T['std_msgs/msg/Header'](stamp=time(), frame_id=frame_id)
+
+
+def roi():
+    return T['sensor_msgs/msg/RegionOfInterest'](x_offset=1, y_offset=2, height=3, width=4, do_rectify=True)
+
+
+def image():
+    return T['sensor_msgs/msg/Image'](
+        header=header('cam'), height=2, width=3, encoding='rgb8', is_bigendian=0, step=9,
+        data=np.arange(18, dtype=np.uint8))
+
+
+def camera_info():
+    return T['sensor_msgs/msg/CameraInfo'](
+        header=header('left'), height=480, width=640, distortion_model='plumb_bob',
+        d=np.array([-0.1, 0.01, 0.001, -0.002, 0.0003]),
+        k=np.array([500.0, 0.0, 319.5, 0.0, 501.0, 239.5, 0.0, 0.0, 1.0]),
+        r=np.array([1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]),
+        p=np.array([500.0, 0.0, 319.5, -30.0, 0.0, 501.0, 239.5, 0.0, 0.0, 0.0, 1.0, 0.0]),
+        binning_x=1, binning_y=2,
+        roi=T['sensor_msgs/msg/RegionOfInterest'](x_offset=10, y_offset=20, height=30, width=40, do_rectify=True))
+
+
+def vector3():
+    return T['geometry_msgs/msg/Vector3'](x=1.5, y=-2.25, z=3.0)
+
+
+def point():
+    return T['geometry_msgs/msg/Point'](x=0.1, y=0.2, z=0.3)
+
+
+def quaternion():
+    return T['geometry_msgs/msg/Quaternion'](x=0.0, y=0.0, z=0.6, w=0.8)
+
+
+def pose():
+    return T['geometry_msgs/msg/Pose'](position=point(), orientation=quaternion())
+
+
+def transform():
+    return T['geometry_msgs/msg/Transform'](translation=vector3(), rotation=quaternion())
+
+
+def transform_stamped(child):
+    return T['geometry_msgs/msg/TransformStamped'](header=header('base'), child_frame_id=child, transform=transform())
+
+
+SAMPLES = {
+    'builtin_interfaces__msg__Time': ('builtin_interfaces/msg/Time', time()),
+    'std_msgs__msg__Header': ('std_msgs/msg/Header', header('left_optical')),
+    'sensor_msgs__msg__Image': ('sensor_msgs/msg/Image', image()),
+    'sensor_msgs__msg__CompressedImage': ('sensor_msgs/msg/CompressedImage', T['sensor_msgs/msg/CompressedImage'](
+        header=header('cam'), format='png', data=np.array([137, 80, 78, 71, 1, 2, 3], dtype=np.uint8))),
+    'sensor_msgs__msg__RegionOfInterest': ('sensor_msgs/msg/RegionOfInterest', roi()),
+    'sensor_msgs__msg__CameraInfo': ('sensor_msgs/msg/CameraInfo', camera_info()),
+    'geometry_msgs__msg__Vector3': ('geometry_msgs/msg/Vector3', vector3()),
+    'geometry_msgs__msg__Point': ('geometry_msgs/msg/Point', point()),
+    'geometry_msgs__msg__Quaternion': ('geometry_msgs/msg/Quaternion', quaternion()),
+    'geometry_msgs__msg__Pose': ('geometry_msgs/msg/Pose', pose()),
+    'geometry_msgs__msg__PoseStamped': ('geometry_msgs/msg/PoseStamped',
+                                        T['geometry_msgs/msg/PoseStamped'](header=header('base'), pose=pose())),
+    'geometry_msgs__msg__Transform': ('geometry_msgs/msg/Transform', transform()),
+    'geometry_msgs__msg__TransformStamped': ('geometry_msgs/msg/TransformStamped', transform_stamped('tool0')),
+    'tf2_msgs__msg__TFMessage': ('tf2_msgs/msg/TFMessage', T['tf2_msgs/msg/TFMessage'](
+        transforms=[transform_stamped('tool0'), transform_stamped('camera')])),
+    'stereo_msgs__msg__DisparityImage': ('stereo_msgs/msg/DisparityImage', T['stereo_msgs/msg/DisparityImage'](
+        header=header('left'),
+        image=T['sensor_msgs/msg/Image'](
+            header=header('left'), height=2, width=2, encoding='32FC1', is_bigendian=0, step=8,
+            data=np.array([1.0, 2.5, -1.0, 64.0], dtype='<f4').view(np.uint8)),
+        f=500.0, t=0.12, valid_window=roi(), min_disparity=0.0, max_disparity=64.0, delta_d=0.0625)),
+    'sensor_msgs__srv__SetCameraInfo_Request': ('sensor_msgs/msg/SetCameraInfo_Request',
+                                                T['sensor_msgs/msg/SetCameraInfo_Request'](camera_info=camera_info())),
+    'sensor_msgs__srv__SetCameraInfo_Response': ('sensor_msgs/msg/SetCameraInfo_Response',
+                                                 T['sensor_msgs/msg/SetCameraInfo_Response'](success=True, status_message='stored')),
+    'std_srvs__srv__Trigger_Request': ('std_msgs/msg/Empty', T['std_msgs/msg/Empty']()),
+    'std_srvs__srv__Trigger_Response': ('std_srvs/msg/Trigger_Response',
+                                        T['std_srvs/msg/Trigger_Response'](success=False, message='no board')),
+}
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument('--write', action='store_true', help='regenerate the fixtures')
+    args = parser.parse_args()
+    failures = 0
+    for name, (typename, sample) in SAMPLES.items():
+        data = bytes(ts.serialize_cdr(sample, typename))
+        path = FIXTURES / f'{name}.cdr'
+        if args.write:
+            FIXTURES.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(data)
+            print(f'wrote {path.name:45} {len(data):4} bytes')
+            continue
+        stored = path.read_bytes() if path.exists() else None
+        status = 'ok' if stored == data else 'DIFFERS'
+        failures += stored != data
+        print(f'{name:45} {len(data):4} bytes  {status}')
+    return 1 if failures else 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
