@@ -1,4 +1,4 @@
-use nalgebra::Vector2;
+use nalgebra::{Matrix2, Matrix2xX, Vector2};
 use serde::{Deserialize, Serialize};
 
 /// The lens distortion models of ROS camera_info (`distortion_model`).
@@ -131,6 +131,145 @@ impl Distortion {
                 p * (theta_d / r)
             }
         }
+    }
+}
+
+/// A distorted normalized coordinate with its derivatives.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DistortionJacobians {
+    /// The distorted normalized coordinate.
+    pub distorted: Vector2<f64>,
+    /// Derivative of the distorted coordinate with respect to the undistorted one.
+    pub d_distorted_d_undistorted: Matrix2<f64>,
+    /// Derivative of the distorted coordinate with respect to the coefficients, one
+    /// column per coefficient in camera_info order ([`Distortion::coeffs`]).
+    pub d_distorted_d_coeffs: Matrix2xX<f64>,
+}
+
+impl Distortion {
+    /// [`Distortion::distort`] with its analytic derivatives with respect to the
+    /// undistorted coordinate and to the coefficients.
+    pub fn distort_with_jacobians(&self, p: &Vector2<f64>) -> DistortionJacobians {
+        let (x, y) = (p.x, p.y);
+        let r2 = x * x + y * y;
+        let d_coeffs = match self {
+            Self::PlumbBob { .. } => {
+                let (r4, r6) = (r2 * r2, r2 * r2 * r2);
+                Matrix2xX::from_column_slice(&[
+                    x * r2,
+                    y * r2,
+                    x * r4,
+                    y * r4,
+                    2.0 * x * y,
+                    r2 + 2.0 * y * y,
+                    r2 + 2.0 * x * x,
+                    2.0 * x * y,
+                    x * r6,
+                    y * r6,
+                ])
+            }
+            Self::RationalPolynomial { coeffs } => {
+                let [k1, k2, _, _, k3, k4, k5, k6] = *coeffs;
+                let (r4, r6) = (r2 * r2, r2 * r2 * r2);
+                let num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+                let den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+                let rad = num / den;
+                let (gx, gy) = (x / den, y / den);
+                Matrix2xX::from_column_slice(&[
+                    gx * r2,
+                    gy * r2,
+                    gx * r4,
+                    gy * r4,
+                    2.0 * x * y,
+                    r2 + 2.0 * y * y,
+                    r2 + 2.0 * x * x,
+                    2.0 * x * y,
+                    gx * r6,
+                    gy * r6,
+                    -gx * rad * r2,
+                    -gy * rad * r2,
+                    -gx * rad * r4,
+                    -gy * rad * r4,
+                    -gx * rad * r6,
+                    -gy * rad * r6,
+                ])
+            }
+            Self::Equidistant { .. } => {
+                let r = r2.sqrt();
+                if r < 1e-12 {
+                    Matrix2xX::zeros(4)
+                } else {
+                    let theta = r.atan();
+                    let t2 = theta * theta;
+                    let (ux, uy) = (x / r, y / r);
+                    let t3 = theta * t2;
+                    let t5 = t3 * t2;
+                    let t7 = t5 * t2;
+                    let t9 = t7 * t2;
+                    Matrix2xX::from_column_slice(&[
+                        ux * t3,
+                        uy * t3,
+                        ux * t5,
+                        uy * t5,
+                        ux * t7,
+                        uy * t7,
+                        ux * t9,
+                        uy * t9,
+                    ])
+                }
+            }
+        };
+        DistortionJacobians {
+            distorted: self.distort(p),
+            d_distorted_d_undistorted: self.distort_jacobian_point(p),
+            d_distorted_d_coeffs: d_coeffs,
+        }
+    }
+
+    /// Derivative of [`Distortion::distort`] with respect to the undistorted coordinate.
+    pub(crate) fn distort_jacobian_point(&self, p: &Vector2<f64>) -> Matrix2<f64> {
+        let (x, y) = (p.x, p.y);
+        let r2 = x * x + y * y;
+        let (rad, drad, p1, p2) = match self {
+            Self::PlumbBob { coeffs } => {
+                let [k1, k2, p1, p2, k3] = *coeffs;
+                let rad = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+                let drad = k1 + r2 * (2.0 * k2 + r2 * 3.0 * k3);
+                (rad, drad, p1, p2)
+            }
+            Self::RationalPolynomial { coeffs } => {
+                let [k1, k2, p1, p2, k3, k4, k5, k6] = *coeffs;
+                let num = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+                let den = 1.0 + r2 * (k4 + r2 * (k5 + r2 * k6));
+                let dnum = k1 + r2 * (2.0 * k2 + r2 * 3.0 * k3);
+                let dden = k4 + r2 * (2.0 * k5 + r2 * 3.0 * k6);
+                (num / den, (dnum * den - num * dden) / (den * den), p1, p2)
+            }
+            Self::Equidistant { coeffs } => {
+                let r = r2.sqrt();
+                if r < 1e-12 {
+                    return Matrix2::identity();
+                }
+                let [k1, k2, k3, k4] = *coeffs;
+                let theta = r.atan();
+                let t2 = theta * theta;
+                let theta_d = theta * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))));
+                let dtheta_d =
+                    1.0 + t2 * (3.0 * k1 + t2 * (5.0 * k2 + t2 * (7.0 * k3 + t2 * 9.0 * k4)));
+                // distorted = p * s(r) with s = theta_d / r; d/dp = s I + s'(r) p p^T / r.
+                let scale = theta_d / r;
+                let dscale = (dtheta_d / (1.0 + r2) - scale) / r;
+                let outer = p * p.transpose() * (dscale / r);
+                return Matrix2::identity() * scale + outer;
+            }
+        };
+        // radial = rad(r2), d r2 / dx = 2x.
+        Matrix2::new(
+            rad + 2.0 * x * x * drad + 2.0 * p1 * y + 6.0 * p2 * x,
+            2.0 * x * y * drad + 2.0 * p1 * x + 2.0 * p2 * y,
+            2.0 * x * y * drad + 2.0 * p1 * x + 2.0 * p2 * y,
+            rad + 2.0 * y * y * drad + 6.0 * p1 * y + 2.0 * p2 * x,
+        )
     }
 }
 

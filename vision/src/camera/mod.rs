@@ -6,11 +6,12 @@
 
 mod distortion;
 mod intrinsics;
+mod undistort;
 
-pub use distortion::{Distortion, DistortionModel};
+pub use distortion::{Distortion, DistortionJacobians, DistortionModel};
 pub use intrinsics::Intrinsics;
 
-use nalgebra::{Point2, Point3, Vector2};
+use nalgebra::{Point2, Point3, Vector2, Vector3};
 
 /// A calibrated camera: image size, pinhole intrinsics and lens distortion.
 #[derive(Clone, Debug, PartialEq)]
@@ -40,5 +41,21 @@ impl CameraModel {
             self.intrinsics
                 .pixel_from_normalized(&self.distortion.distort(&normalized)),
         )
+    }
+
+    /// The ray through a pixel, as the undistorted normalized point `(x, y, 1)` in the
+    /// camera frame; `None` when the pixel has no preimage in the distortion model (see
+    /// [`Distortion::undistort`]).
+    pub fn unproject(&self, pixel: &Point2<f64>) -> Option<Vector3<f64>> {
+        let distorted = self.intrinsics.normalized_from_pixel(pixel);
+        let undistorted = self.distortion.undistort(&distorted)?;
+        Some(Vector3::new(undistorted.x, undistorted.y, 1.0))
+    }
+
+    /// Where the ideal, distortion-free pinhole camera with the same intrinsics sees
+    /// what this camera images at `pixel`; `None` as for [`CameraModel::unproject`].
+    pub fn undistort_pixel(&self, pixel: &Point2<f64>) -> Option<Point2<f64>> {
+        let ray = self.unproject(pixel)?;
+        Some(self.intrinsics.pixel_from_normalized(&ray.xy()))
     }
 }
