@@ -4,3 +4,4 @@
 
 pub mod bag;
 pub mod cli;
+pub mod runtime;
