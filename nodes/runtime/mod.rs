@@ -18,5 +18,6 @@ pub mod qos;
 pub mod queue;
 pub mod sequence_gaps;
 pub mod shutdown;
+pub mod transport;
 
 pub use error::{Result, RuntimeError};
