@@ -4,4 +4,6 @@
 
 pub mod bag;
 pub mod cli;
+pub mod convert;
+pub mod rectify_stage;
 pub mod runtime;

@@ -1,0 +1,193 @@
+//! The rectify pipeline stage shared by `rectify_node` and `stereocal rectify`: a raw
+//! `sensor_msgs/Image` and its `sensor_msgs/CameraInfo` in, the rectified image out,
+//! like image_proc's RectifyNode.
+
+use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
+use stereocal_vision::image::{Image, Samples};
+use stereocal_vision::rectify::{MapError, RectifyMap, RemapError, RemapOptions, remap_into};
+use thiserror::Error;
+
+use crate::convert::{
+    CameraInfoError, ImageMsgError, calibrated_camera_from_info, decode_image_into, msg_from_image,
+};
+
+/// Why a frame could not be rectified. The [`Rectifier`] stays usable: the next frame
+/// is processed afresh.
+#[derive(Debug, Error, PartialEq)]
+pub enum RectifyError {
+    /// The image message is malformed or has an unsupported encoding.
+    #[error("image: {0}")]
+    Image(#[from] ImageMsgError),
+    /// The camera_info message does not describe a usable calibration.
+    #[error(transparent)]
+    CameraInfo(#[from] CameraInfoError),
+    /// The image and its camera_info disagree on the size.
+    #[error(
+        "image is {image_width}x{image_height} but its camera_info is {info_width}x{info_height}"
+    )]
+    SizeMismatch {
+        /// Image width.
+        image_width: u32,
+        /// Image height.
+        image_height: u32,
+        /// camera_info width.
+        info_width: u32,
+        /// camera_info height.
+        info_height: u32,
+    },
+    /// No rectification map exists for this camera_info.
+    #[error("rectification map: {0}")]
+    Map(#[from] MapError),
+    /// Remapping failed.
+    #[error("remap: {0}")]
+    Remap(#[from] RemapError),
+}
+
+/// What [`Rectifier::rectify`] produced for one frame.
+#[derive(Debug, PartialEq)]
+pub enum Rectified {
+    /// The rectified image: the input's encoding and header, camera_info's size.
+    Image(ImageMsg),
+    /// Nothing to publish: the camera_info is uncalibrated (`K[0] == 0`). `warning` is
+    /// set on the first such frame after a calibrated one (or the start), so that a
+    /// node warns once, like image_proc.
+    Uncalibrated {
+        /// The message to log, only the first time.
+        warning: Option<String>,
+    },
+}
+
+/// The map of the last camera_info, kept until a camera_info that differs in a field
+/// that matters arrives.
+#[derive(Default)]
+struct MapCache {
+    /// The camera_info (header cleared) the map was built from, and the map.
+    cached: Option<(CameraInfo, RectifyMap)>,
+    builds: usize,
+}
+
+impl MapCache {
+    /// The map of `info`, built only when `info` differs from the cached one.
+    fn get(&mut self, info: &CameraInfo) -> Result<&RectifyMap, RectifyError> {
+        let cached = match self.cached.take() {
+            Some(cached) if same_calibration(&cached.0, info) => cached,
+            _ => {
+                let camera = calibrated_camera_from_info(info)?;
+                let map = RectifyMap::new(
+                    &camera.model,
+                    &camera.rectified_from_camera,
+                    &camera.projection,
+                    info.width as usize,
+                    info.height as usize,
+                )?;
+                self.builds += 1;
+                let key = CameraInfo {
+                    header: Default::default(),
+                    ..info.clone()
+                };
+                (key, map)
+            }
+        };
+        Ok(&self.cached.insert(cached).1)
+    }
+}
+
+/// Rectifies images with maps built from their camera_info. Maps are built only when
+/// the camera_info changes (size, distortion, `K`, `R`, `P`, binning or ROI; not the
+/// header), never per frame; decode and output buffers are reused from frame to frame.
+pub struct Rectifier {
+    options: RemapOptions,
+    maps: MapCache,
+    warned_uncalibrated: bool,
+    source: Image,
+    rectified: Image,
+}
+
+impl Rectifier {
+    /// A rectifier with the given interpolation and threading.
+    pub fn new(options: RemapOptions) -> Self {
+        Self {
+            options,
+            maps: MapCache::default(),
+            warned_uncalibrated: false,
+            source: Image::zeros_u8(0, 0, 1),
+            rectified: Image::zeros_u8(0, 0, 1),
+        }
+    }
+
+    /// The interpolation and threading in use.
+    pub fn options(&self) -> RemapOptions {
+        self.options
+    }
+
+    /// How many maps have been built so far.
+    pub fn map_builds(&self) -> usize {
+        self.maps.builds
+    }
+
+    /// Rectifies `image` with `info`, the camera_info of the same camera. The output has
+    /// the input's encoding and header and camera_info's size.
+    pub fn rectify(
+        &mut self,
+        image: &ImageMsg,
+        info: &CameraInfo,
+    ) -> Result<Rectified, RectifyError> {
+        if info.k[0] == 0.0 {
+            let warning = (!self.warned_uncalibrated).then(|| {
+                format!(
+                    "camera_info of frame {:?} is uncalibrated (K[0] == 0): publishing no rectified images until a calibrated camera_info arrives",
+                    image.header.frame_id
+                )
+            });
+            self.warned_uncalibrated = true;
+            return Ok(Rectified::Uncalibrated { warning });
+        }
+        self.warned_uncalibrated = false;
+        if (image.width, image.height) != (info.width, info.height) {
+            return Err(RectifyError::SizeMismatch {
+                image_width: image.width,
+                image_height: image.height,
+                info_width: info.width,
+                info_height: info.height,
+            });
+        }
+        let map = self.maps.get(info)?;
+        let encoding = decode_image_into(image, &mut self.source)?;
+        shape_like(&mut self.rectified, &self.source, map);
+        remap_into(&self.source, map, &mut self.rectified, self.options)?;
+        Ok(Rectified::Image(msg_from_image(
+            &self.rectified,
+            encoding,
+            image.header.clone(),
+        )?))
+    }
+}
+
+/// Whether two camera_infos give the same map: every field but the header.
+fn same_calibration(a: &CameraInfo, b: &CameraInfo) -> bool {
+    a.width == b.width
+        && a.height == b.height
+        && a.distortion_model == b.distortion_model
+        && a.d == b.d
+        && a.k == b.k
+        && a.r == b.r
+        && a.p == b.p
+        && a.binning_x == b.binning_x
+        && a.binning_y == b.binning_y
+        && a.roi == b.roi
+}
+
+/// Gives `dst` the map's size and the source's channels and sample type, keeping its
+/// buffer when it already fits.
+fn shape_like(dst: &mut Image, src: &Image, map: &RectifyMap) {
+    let len = map.width() * map.height() * src.channels;
+    match (&src.samples, &mut dst.samples) {
+        (Samples::U8(_), Samples::U8(v)) => v.resize(len, 0),
+        (Samples::U16(_), Samples::U16(v)) => v.resize(len, 0),
+        (Samples::U8(_), other) => *other = Samples::U8(vec![0; len]),
+        (Samples::U16(_), other) => *other = Samples::U16(vec![0; len]),
+    }
+    dst.width = map.width();
+    dst.height = map.height();
+    dst.channels = src.channels;
+}
