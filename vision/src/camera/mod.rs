@@ -6,10 +6,12 @@
 
 mod distortion;
 mod intrinsics;
+mod projection;
 mod undistort;
 
 pub use distortion::{Distortion, DistortionJacobians, DistortionModel};
 pub use intrinsics::Intrinsics;
+pub use projection::{Projection, TargetProjection, retract_pose};
 
 use nalgebra::{Point2, Point3, Vector2, Vector3};
 
