@@ -11,6 +11,7 @@ pub mod args;
 pub mod error;
 pub mod logging;
 pub mod names;
+pub mod node;
 pub mod param_value;
 pub mod params;
 pub mod params_file;
@@ -18,6 +19,7 @@ pub mod qos;
 pub mod queue;
 pub mod sequence_gaps;
 pub mod shutdown;
+pub mod sync;
 pub mod transport;
 
 pub use error::{Result, RuntimeError};
