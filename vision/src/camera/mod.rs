@@ -6,11 +6,14 @@
 
 mod distortion;
 mod intrinsics;
+mod new_camera_matrix;
 mod projection;
 mod undistort;
 
 pub use distortion::{Distortion, DistortionJacobians, DistortionModel};
 pub use intrinsics::Intrinsics;
+pub use new_camera_matrix::{NewCameraMatrixError, Roi, optimal_new_camera_matrix};
+pub(crate) use new_camera_matrix::{Rectangle, fisheye_new_intrinsics, undistorted_rectangles};
 pub use projection::{Projection, TargetProjection, retract_pose};
 
 use nalgebra::{Point2, Point3, Vector2, Vector3};
