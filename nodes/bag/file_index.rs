@@ -319,6 +319,9 @@ fn scan(file: &mut File, path: &Path, len: u64) -> Result<FileIndex, BagError> {
         loose: None,
     };
     let mut pos = mcap::MAGIC.len() as u64;
+    // After the data section only framing matters: the summary repeats what the data
+    // section holds, so damage inside its records loses nothing.
+    let mut in_summary = false;
     let damage = loop {
         if pos == len {
             break Some(truncated(
@@ -343,7 +346,7 @@ fn scan(file: &mut File, path: &Path, len: u64) -> Result<FileIndex, BagError> {
         len_bytes.copy_from_slice(&prefix[1..]);
         let record_len = u64::from_le_bytes(len_bytes);
         let end = (pos + RECORD_PREFIX_LEN).checked_add(record_len);
-        if opcode == op::CHUNK {
+        if opcode == op::CHUNK && !in_summary {
             scan.flush_loose();
             if let Some(damage) = scan.add_chunk(file, pos) {
                 break Some(damage);
@@ -359,6 +362,7 @@ fn scan(file: &mut File, path: &Path, len: u64) -> Result<FileIndex, BagError> {
             ));
         };
         match opcode {
+            op::DATA_END => in_summary = true,
             op::FOOTER => {
                 let mut closing = [0u8; 8];
                 if len - end < closing.len() as u64 {
@@ -376,7 +380,7 @@ fn scan(file: &mut File, path: &Path, len: u64) -> Result<FileIndex, BagError> {
                 }
                 break None;
             }
-            op::SCHEMA | op::CHANNEL => {
+            op::SCHEMA | op::CHANNEL if !in_summary => {
                 let mut body = vec![0u8; record_len as usize];
                 file.read_exact(&mut body)
                     .map_err(|e| BagError::io(path, e))?;
@@ -384,7 +388,7 @@ fn scan(file: &mut File, path: &Path, len: u64) -> Result<FileIndex, BagError> {
                     break Some(corrupt(path, pos, reason));
                 }
             }
-            op::MESSAGE => {
+            op::MESSAGE if !in_summary => {
                 let mut head = [0u8; MESSAGE_HEADER_LEN];
                 if record_len < head.len() as u64 {
                     break Some(corrupt(

@@ -9,6 +9,7 @@ pub(crate) mod op {
     pub const CHANNEL: u8 = 0x04;
     pub const MESSAGE: u8 = 0x05;
     pub const CHUNK: u8 = 0x06;
+    pub const DATA_END: u8 = 0x0f;
 }
 
 /// Opcode byte plus the u64 record length that precede every record body.
