@@ -1,0 +1,387 @@
+//! Undistort/rectify maps: for every pixel of the rectified (output) image, the position
+//! in the original (distorted) image to sample, with the semantics of OpenCV's
+//! `initUndistortRectifyMap` (pinhole models) and `fisheye::initUndistortRectifyMap`
+//! (equidistant).
+//!
+//! Positions are stored in fixed point exactly like OpenCV's `CV_16SC2` + `CV_16UC1`
+//! map pair: the integer part of the source position (`x`, `y` as `i16`) and a 10-bit
+//! sub-pixel index `(fy << 5) | fx` where `fx`, `fy` are the fractions in 1/32 pixel
+//! ([`INTER_TAB_SIZE`] steps). A position is therefore rounded to the nearest 1/32 pixel
+//! (half-to-even on exact ties, like OpenCV's `cvRound`): the stored position is within
+//! 1/64 pixel of the exact one. Positions farther than 32767 pixels from the origin are
+//! clamped to the `i16` range; they lie outside any image and sample the border.
+
+use nalgebra::{Matrix3, Matrix3x4, Vector3};
+use rayon::prelude::*;
+use thiserror::Error;
+
+use crate::camera::{CameraModel, Distortion};
+
+/// Bits of sub-pixel precision of a map position (OpenCV's `INTER_BITS`).
+pub const INTER_BITS: u32 = 5;
+/// Sub-pixel steps per pixel (OpenCV's `INTER_TAB_SIZE`).
+pub const INTER_TAB_SIZE: i32 = 1 << INTER_BITS;
+const FRACTION_MASK: i32 = INTER_TAB_SIZE - 1;
+
+/// Why a map could not be built.
+#[derive(Debug, Error, PartialEq)]
+pub enum MapError {
+    /// The output size is zero or too large for 16-bit map coordinates.
+    #[error("map size {width}x{height} is invalid: expected 1..=32767 pixels on each side")]
+    InvalidSize {
+        /// Requested width.
+        width: usize,
+        /// Requested height.
+        height: usize,
+    },
+    /// `P[:, :3] * R` cannot be inverted, so output pixels have no ray.
+    #[error("the new projection times the rectification rotation is singular")]
+    SingularProjection,
+    /// A matrix or camera parameter is NaN or infinite.
+    #[error("{0} contains a non-finite value")]
+    NonFinite(&'static str),
+    /// The focal lengths are not positive.
+    #[error("camera focal lengths must be positive, got fx={fx}, fy={fy}")]
+    InvalidFocalLength {
+        /// Focal length along x.
+        fx: f64,
+        /// Focal length along y.
+        fy: f64,
+    },
+}
+
+/// A precomputed remap table: for each output pixel, the source position in fixed
+/// point (see the module documentation). Build it once per camera_info and reuse it
+/// for every frame with [`remap`](super::remap::remap).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RectifyMap {
+    width: usize,
+    height: usize,
+    xy: Vec<[i16; 2]>,
+    fraction: Vec<u16>,
+}
+
+impl RectifyMap {
+    /// The undistort/rectify map of `camera` for an output image of `width` x `height`
+    /// pixels. `rectified_from_original` is camera_info's `R` (identity to only
+    /// undistort) and `projection` camera_info's `P`, of which the left 3x3 block is
+    /// the camera matrix of the output image. Rows are computed in parallel on the
+    /// current rayon pool.
+    pub fn new(
+        camera: &CameraModel,
+        rectified_from_original: &Matrix3<f64>,
+        projection: &Matrix3x4<f64>,
+        width: usize,
+        height: usize,
+    ) -> Result<Self, MapError> {
+        let k = camera.intrinsics;
+        if ![k.fx, k.fy, k.cx, k.cy].iter().all(|v| v.is_finite())
+            || !camera.distortion.coeffs().iter().all(|v| v.is_finite())
+        {
+            return Err(MapError::NonFinite("camera model"));
+        }
+        if !(k.fx > 0.0 && k.fy > 0.0) {
+            return Err(MapError::InvalidFocalLength { fx: k.fx, fy: k.fy });
+        }
+        if !rectified_from_original.iter().all(|v| v.is_finite()) {
+            return Err(MapError::NonFinite("rectification matrix R"));
+        }
+        if !projection.iter().all(|v| v.is_finite()) {
+            return Err(MapError::NonFinite("projection matrix P"));
+        }
+        let new_camera = projection.fixed_view::<3, 3>(0, 0).into_owned();
+        let original_from_pixel = (new_camera * rectified_from_original)
+            .try_inverse()
+            .ok_or(MapError::SingularProjection)?;
+        let distortion = camera.distortion.clone();
+        Self::from_fn(width, height, |x, y| {
+            let ray = original_from_pixel * Vector3::new(x as f64, y as f64, 1.0);
+            source_pixel(&distortion, k.fx, k.fy, k.cx, k.cy, &ray)
+        })
+    }
+
+    /// The map that only undistorts `camera` at its own size and camera matrix (OpenCV's
+    /// `undistort` with the same camera matrix): `R` is the identity and `P = [K | 0]`.
+    pub fn undistort(camera: &CameraModel) -> Result<Self, MapError> {
+        let projection = camera.intrinsics.matrix().insert_column(3, 0.0);
+        Self::new(
+            camera,
+            &Matrix3::identity(),
+            &projection,
+            camera.width as usize,
+            camera.height as usize,
+        )
+    }
+
+    /// A map from any function giving, for output pixel `(x, y)`, the source position
+    /// in pixels (pixel centres at integer coordinates). Non-finite positions sample the
+    /// border. Rows are computed in parallel on the current rayon pool.
+    pub fn from_fn<F>(width: usize, height: usize, source: F) -> Result<Self, MapError>
+    where
+        F: Fn(usize, usize) -> (f64, f64) + Sync,
+    {
+        let max_side = i16::MAX as usize;
+        if width == 0 || height == 0 || width > max_side || height > max_side {
+            return Err(MapError::InvalidSize { width, height });
+        }
+        let mut xy = vec![[0i16; 2]; width * height];
+        let mut fraction = vec![0u16; width * height];
+        xy.par_chunks_mut(width)
+            .zip(fraction.par_chunks_mut(width))
+            .enumerate()
+            .for_each(|(y, (xy_row, fraction_row))| {
+                for (x, (xy_px, fraction_px)) in
+                    xy_row.iter_mut().zip(fraction_row.iter_mut()).enumerate()
+                {
+                    let (u, v) = source(x, y);
+                    let (iu, iv) = (fixed_point(u), fixed_point(v));
+                    // The clamp in `fixed_point` keeps both integer parts in i16.
+                    *xy_px = [(iu >> INTER_BITS) as i16, (iv >> INTER_BITS) as i16];
+                    *fraction_px =
+                        (((iv & FRACTION_MASK) << INTER_BITS) | (iu & FRACTION_MASK)) as u16;
+                }
+            });
+        Ok(Self {
+            width,
+            height,
+            xy,
+            fraction,
+        })
+    }
+
+    /// Output width in pixels.
+    pub fn width(&self) -> usize {
+        self.width
+    }
+
+    /// Output height in pixels.
+    pub fn height(&self) -> usize {
+        self.height
+    }
+
+    /// Integer parts `[x, y]` of the source positions, row-major (OpenCV's `CV_16SC2`
+    /// map).
+    pub fn xy(&self) -> &[[i16; 2]] {
+        &self.xy
+    }
+
+    /// Sub-pixel indices `(fy << 5) | fx`, row-major (OpenCV's `CV_16UC1` map).
+    pub fn fraction(&self) -> &[u16] {
+        &self.fraction
+    }
+
+    /// The stored source position of output pixel `(x, y)` in pixels, or `None` outside
+    /// the map.
+    pub fn source_position(&self, x: usize, y: usize) -> Option<(f64, f64)> {
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        let i = y * self.width + x;
+        let [ix, iy] = self.xy[i];
+        let f = i32::from(self.fraction[i]);
+        let step = f64::from(INTER_TAB_SIZE);
+        Some((
+            f64::from(ix) + f64::from(f & FRACTION_MASK) / step,
+            f64::from(iy) + f64::from(f >> INTER_BITS) / step,
+        ))
+    }
+}
+
+/// The distorted pixel of the ray `ray` (in the original camera frame), with OpenCV's
+/// formulas and degenerate cases: pinhole models divide by `z` whatever its sign, the
+/// fisheye model sends rays at or behind the image plane to infinity.
+fn source_pixel(
+    distortion: &Distortion,
+    fx: f64,
+    fy: f64,
+    cx: f64,
+    cy: f64,
+    ray: &Vector3<f64>,
+) -> (f64, f64) {
+    if let Distortion::Equidistant { .. } = distortion
+        && ray.z <= 0.0
+    {
+        let u = if ray.x > 0.0 {
+            f64::NEG_INFINITY
+        } else {
+            f64::INFINITY
+        };
+        let v = if ray.y > 0.0 {
+            f64::NEG_INFINITY
+        } else {
+            f64::INFINITY
+        };
+        return (u, v);
+    }
+    let w = 1.0 / ray.z;
+    let d = distortion.distort(&nalgebra::Vector2::new(ray.x * w, ray.y * w));
+    (fx * d.x + cx, fy * d.y + cy)
+}
+
+/// `round(v * 32)`, half to even like OpenCV's `cvRound`, clamped so that the integer
+/// part fits in `i16`; NaN goes far outside any image.
+fn fixed_point(v: f64) -> i32 {
+    let lo = f64::from(i32::from(i16::MIN) * INTER_TAB_SIZE);
+    let hi = f64::from(i32::from(i16::MAX) * INTER_TAB_SIZE + FRACTION_MASK);
+    if v.is_nan() {
+        return lo as i32;
+    }
+    (v * f64::from(INTER_TAB_SIZE))
+        .round_ties_even()
+        .clamp(lo, hi) as i32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::Intrinsics;
+    use nalgebra::{Point3, Rotation3};
+
+    fn camera(distortion: Distortion) -> CameraModel {
+        CameraModel {
+            width: 320,
+            height: 240,
+            intrinsics: Intrinsics {
+                fx: 260.0,
+                fy: 255.0,
+                cx: 161.3,
+                cy: 118.7,
+            },
+            distortion,
+        }
+    }
+
+    fn models() -> Vec<CameraModel> {
+        vec![
+            camera(Distortion::PlumbBob {
+                coeffs: [-0.28, 0.09, 0.001, -0.0007, -0.012],
+            }),
+            camera(Distortion::RationalPolynomial {
+                coeffs: [0.45, -0.1, 0.0008, 0.0005, 0.02, 0.7, -0.05, 0.01],
+            }),
+            camera(Distortion::Equidistant {
+                coeffs: [-0.012, 0.004, -0.002, 0.0004],
+            }),
+        ]
+    }
+
+    /// Every stored position is within half a fixed-point step of the camera's own
+    /// projection of the ray that the output pixel back-projects to.
+    #[test]
+    fn map_matches_projection_of_back_projected_rays() {
+        let rectified_from_original = *Rotation3::from_euler_angles(0.02, -0.03, 0.01).matrix();
+        let projection = Matrix3x4::new(
+            230.0, 0.0, 150.0, -23.0, //
+            0.0, 230.0, 125.0, 0.0, //
+            0.0, 0.0, 1.0, 0.0,
+        );
+        let pixel_from_rectified = projection.fixed_view::<3, 3>(0, 0).into_owned();
+        let rectified_from_pixel = pixel_from_rectified.try_inverse().unwrap();
+        for model in models() {
+            let map =
+                RectifyMap::new(&model, &rectified_from_original, &projection, 300, 250).unwrap();
+            let mut checked = 0;
+            for y in 0..map.height() {
+                for x in 0..map.width() {
+                    let ray_rectified =
+                        rectified_from_pixel * Vector3::new(x as f64, y as f64, 1.0);
+                    let ray = rectified_from_original.transpose() * ray_rectified;
+                    let expected = model.project(&Point3::from(ray)).unwrap();
+                    let (u, v) = map.source_position(x, y).unwrap();
+                    let tolerance = 0.5 / 32.0 + 1e-9;
+                    assert!(
+                        (u - expected.x).abs() <= tolerance && (v - expected.y).abs() <= tolerance,
+                        "{:?} at ({x}, {y}): map ({u}, {v}) vs projection {expected}",
+                        model.distortion.model()
+                    );
+                    checked += 1;
+                }
+            }
+            assert_eq!(checked, 300 * 250);
+        }
+    }
+
+    #[test]
+    fn fixed_point_layout_matches_opencv() {
+        let map = RectifyMap::from_fn(2, 1, |x, _| {
+            if x == 0 {
+                (3.5, -0.25)
+            } else {
+                (-1.0 / 64.0, 7.0)
+            }
+        })
+        .unwrap();
+        assert_eq!(map.xy(), &[[3, -1], [0, 7]]);
+        // 3.5 -> 112 = 3*32 + 16; -0.25 -> -8 = -1*32 + 24. -1/64 rounds to even 0.
+        assert_eq!(map.fraction(), &[(24 << 5) | 16, 0]);
+        assert_eq!(map.source_position(0, 0), Some((3.5, -0.25)));
+    }
+
+    #[test]
+    fn far_and_non_finite_positions_are_clamped() {
+        let map = RectifyMap::from_fn(3, 1, |x, _| match x {
+            0 => (1e9, -1e9),
+            1 => (f64::NAN, f64::INFINITY),
+            _ => (f64::NEG_INFINITY, 2.0),
+        })
+        .unwrap();
+        assert_eq!(map.xy()[0], [i16::MAX, i16::MIN]);
+        assert_eq!(map.xy()[1], [i16::MIN, i16::MAX]);
+        assert_eq!(map.xy()[2], [i16::MIN, 2]);
+    }
+
+    #[test]
+    fn fisheye_rays_behind_the_camera_go_to_the_border() {
+        let model = models().pop().unwrap();
+        // A rotation of 180 degrees about y puts the whole view behind the camera.
+        let behind = *Rotation3::from_euler_angles(0.0, std::f64::consts::PI, 0.0).matrix();
+        let projection = model.intrinsics.matrix().insert_column(3, 0.0);
+        let map = RectifyMap::new(&model, &behind, &projection, 8, 8).unwrap();
+        assert!(
+            map.xy()
+                .iter()
+                .all(|p| p[0] == i16::MAX || p[0] == i16::MIN)
+        );
+    }
+
+    #[test]
+    fn bad_parameters_are_rejected() {
+        let model = models().remove(0);
+        let projection = model.intrinsics.matrix().insert_column(3, 0.0);
+        let identity = Matrix3::identity();
+        assert_eq!(
+            RectifyMap::new(&model, &identity, &projection, 0, 10),
+            Err(MapError::InvalidSize {
+                width: 0,
+                height: 10
+            })
+        );
+        assert_eq!(
+            RectifyMap::new(&model, &Matrix3::zeros(), &projection, 10, 10),
+            Err(MapError::SingularProjection)
+        );
+        let mut nan_r = identity;
+        nan_r[(1, 2)] = f64::NAN;
+        assert_eq!(
+            RectifyMap::new(&model, &nan_r, &projection, 10, 10),
+            Err(MapError::NonFinite("rectification matrix R"))
+        );
+        let mut uncalibrated = model.clone();
+        uncalibrated.intrinsics.fx = 0.0;
+        assert!(matches!(
+            RectifyMap::new(&uncalibrated, &identity, &projection, 10, 10),
+            Err(MapError::InvalidFocalLength { .. })
+        ));
+    }
+
+    #[test]
+    fn undistort_without_distortion_is_the_identity() {
+        let model = camera(Distortion::none());
+        let map = RectifyMap::undistort(&model).unwrap();
+        assert_eq!((map.width(), map.height()), (320, 240));
+        for (i, (xy, f)) in map.xy().iter().zip(map.fraction()).enumerate() {
+            assert_eq!(*xy, [(i % 320) as i16, (i / 320) as i16]);
+            assert_eq!(*f, 0);
+        }
+    }
+}
