@@ -1,6 +1,7 @@
 //! The `stereocal` command line: offline processing of bags, synthetic scenes and the demo.
 
 use clap::{Parser, Subcommand};
+use stereocal::cli::rectify::RectifyArgs;
 
 /// Stereo camera calibration, rectification and pose, offline on rosbag2 bags.
 #[derive(Parser)]
@@ -11,9 +12,14 @@ struct Cli {
 }
 
 #[derive(Subcommand)]
-enum Command {}
+enum Command {
+    /// Rectify every image topic of a bag that has a camera_info into <ns>/image_rect.
+    Rectify(RectifyArgs),
+}
 
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
-    match cli.command {}
+    match cli.command {
+        Command::Rectify(args) => stereocal::cli::rectify::run(&args),
+    }
 }

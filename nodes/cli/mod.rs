@@ -1,2 +1,4 @@
 //! The offline commands of the `stereocal` binary, one module per command; each exposes
 //! its clap `Args` and a `run` function.
+
+pub mod rectify;

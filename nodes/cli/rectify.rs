@@ -1,0 +1,567 @@
+//! `stereocal rectify`: rectifies every image topic of a bag that has a camera_info and
+//! writes `<ns>/image_rect` beside copies of all input topics.
+//!
+//! The bag is streamed: a few frames per camera wait at most for their camera_info, so
+//! memory stays bounded whatever the bag's size. An image is paired with the camera_info
+//! of the same stamp when one arrives close by, otherwise with the nearest recent one.
+
+use std::collections::{BTreeMap, VecDeque};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use stereocal_msgs::RosMessage;
+use stereocal_msgs::camera_info_file::CameraInfoFile;
+use stereocal_msgs::cdr;
+use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
+use stereocal_vision::rectify::{Interpolation, RemapOptions};
+
+use crate::bag::{
+    BagReader, BagWriter, Durability, OfferedQos, Reliability, TopicFilter, TopicId, WriterOptions,
+};
+use crate::rectify_stage::{Rectified, Rectifier};
+
+/// Images per camera that may wait for a camera_info with their stamp.
+const MAX_PENDING: usize = 4;
+/// Recent camera_infos kept per camera for pairing by stamp.
+const RECENT_INFOS: usize = 8;
+/// Problems kept in a [`BagRectifyReport`]; later ones are only counted.
+const MAX_PROBLEMS_KEPT: usize = 1000;
+
+/// Arguments of `stereocal rectify`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct RectifyArgs {
+    /// Input rosbag2 bag: a directory with metadata.yaml or a .mcap file.
+    #[arg(long)]
+    pub bag: PathBuf,
+    /// Output bag: a directory, or a file ending in .mcap. Written atomically.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Calibration for an image topic (or its `<ns>/camera_info` topic) from a
+    /// camera_calibration_parsers YAML or INI file, used instead of the bag's
+    /// camera_info. Repeatable.
+    #[arg(long = "camera-info", value_name = "TOPIC=FILE", value_parser = parse_camera_info_arg)]
+    pub camera_info: Vec<(String, PathBuf)>,
+    /// Interpolation, as image_proc: 0 nearest, 1 linear, 2 cubic.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(i64).range(0..=2))]
+    pub interpolation: i64,
+    /// Replace the output bag if it exists.
+    #[arg(long)]
+    pub overwrite: bool,
+}
+
+fn parse_camera_info_arg(value: &str) -> Result<(String, PathBuf), String> {
+    match value.split_once('=') {
+        Some((topic, file)) if !topic.is_empty() && !file.is_empty() => {
+            Ok((topic.to_owned(), PathBuf::from(file)))
+        }
+        _ => Err(format!("expected TOPIC=FILE.yaml, got {value:?}")),
+    }
+}
+
+/// What [`rectify_bag`] should do beyond the input and output paths.
+#[derive(Debug, Clone, Default)]
+pub struct BagRectifyOptions {
+    /// camera_info to use for an image topic (or for the image topics of a
+    /// `<ns>/camera_info` topic) instead of the bag's.
+    pub camera_infos: Vec<(String, CameraInfo)>,
+    /// Interpolation and threading of remap.
+    pub remap: RemapOptions,
+    /// Replace an existing output bag.
+    pub overwrite: bool,
+}
+
+/// One rectified camera of a [`BagRectifyReport`].
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TopicReport {
+    /// The input image topic.
+    pub image_topic: String,
+    /// The output topic, `<ns>/image_rect`.
+    pub rect_topic: String,
+    /// Where the camera_info came from: a bag topic or a file.
+    pub camera_info_source: String,
+    /// Images read on the input topic.
+    pub frames: u64,
+    /// Rectified images written.
+    pub rectified: u64,
+    /// Maps built (once per distinct camera_info).
+    pub map_builds: u64,
+}
+
+/// A message that could not be used, and why.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Problem {
+    /// The message's topic.
+    pub topic: String,
+    /// Its log time, nanoseconds since the Unix epoch.
+    pub log_time_ns: u64,
+    /// What was wrong.
+    pub reason: String,
+}
+
+/// The outcome of [`rectify_bag`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct BagRectifyReport {
+    /// The bag written.
+    pub output: PathBuf,
+    /// Per rectified camera, in topic order.
+    pub topics: Vec<TopicReport>,
+    /// Image topics left unrectified, with the reason.
+    pub unrectified_topics: Vec<(String, String)>,
+    /// Messages copied from the input.
+    pub copied: u64,
+    /// Messages that could not be used (the first [`MAX_PROBLEMS_KEPT`]).
+    pub problems: Vec<Problem>,
+    /// Total number of problems.
+    pub problem_count: u64,
+    /// Damage in the input bag that ended reading early, if any: every message before it
+    /// was processed and the output bag is complete for them.
+    pub damage: Option<String>,
+    /// Wall time of the whole run.
+    pub elapsed: Duration,
+}
+
+impl BagRectifyReport {
+    /// Rectified images per second over the whole run.
+    pub fn frames_per_second(&self) -> f64 {
+        let rectified: u64 = self.topics.iter().map(|t| t.rectified).sum();
+        rectified as f64 / self.elapsed.as_secs_f64().max(1e-9)
+    }
+}
+
+/// Runs `stereocal rectify`.
+pub fn run(args: &RectifyArgs) -> anyhow::Result<()> {
+    let camera_infos = args
+        .camera_info
+        .iter()
+        .map(|(topic, file)| {
+            let calibration = CameraInfoFile::read(file)
+                .with_context(|| format!("--camera-info {topic}={}", file.display()))?;
+            Ok((topic.clone(), calibration.info))
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let interpolation = Interpolation::from_ros_parameter(args.interpolation)
+        .with_context(|| format!("--interpolation {}: expected 0, 1 or 2", args.interpolation))?;
+    let options = BagRectifyOptions {
+        camera_infos,
+        remap: RemapOptions {
+            interpolation,
+            ..RemapOptions::default()
+        },
+        overwrite: args.overwrite,
+    };
+    let progress = ProgressBar::new(0).with_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames ({per_sec}, eta {eta})",
+        )
+        .context("progress bar template")?,
+    );
+    let report = rectify_bag(&args.bag, &args.out, &options, &progress)?;
+    progress.finish_and_clear();
+    print_summary(&report);
+    if let Some(damage) = &report.damage {
+        bail!(
+            "the input bag is damaged ({damage}); {} holds everything before the damage",
+            report.output.display()
+        );
+    }
+    Ok(())
+}
+
+fn print_summary(report: &BagRectifyReport) {
+    let rectified: u64 = report.topics.iter().map(|t| t.rectified).sum();
+    eprintln!(
+        "rectified {rectified} frames in {:.2} s ({:.1} frames/s), copied {} messages into {}",
+        report.elapsed.as_secs_f64(),
+        report.frames_per_second(),
+        report.copied,
+        report.output.display()
+    );
+    for t in &report.topics {
+        eprintln!(
+            "  {} -> {}: {}/{} frames rectified, {} map build(s), camera_info from {}",
+            t.image_topic, t.rect_topic, t.rectified, t.frames, t.map_builds, t.camera_info_source
+        );
+    }
+    for (topic, reason) in &report.unrectified_topics {
+        eprintln!("  {topic}: not rectified: {reason}");
+    }
+    if report.problem_count > 0 {
+        eprintln!(
+            "  {} message(s) skipped (reported above)",
+            report.problem_count
+        );
+    }
+}
+
+/// Where a camera's camera_info comes from.
+enum InfoSource {
+    /// A topic of the bag.
+    Topic(String),
+    /// Given by the caller.
+    Fixed(Box<CameraInfo>),
+}
+
+/// One image topic being rectified.
+struct Camera {
+    image_topic: String,
+    rect_topic: String,
+    rect_id: TopicId,
+    source: InfoSource,
+    source_label: String,
+    recent_infos: VecDeque<CameraInfo>,
+    /// Images waiting for their camera_info, with their log and publish times.
+    pending: VecDeque<(u64, u64, ImageMsg)>,
+    rectifier: Rectifier,
+    frames: u64,
+    rectified: u64,
+}
+
+/// Collects problems: printed as they happen (above the progress bar), the first ones
+/// kept for the report.
+struct Problems<'a> {
+    progress: &'a ProgressBar,
+    kept: Vec<Problem>,
+    count: u64,
+}
+
+impl Problems<'_> {
+    fn report(&mut self, topic: &str, log_time_ns: u64, reason: String) {
+        self.progress.suspend(|| {
+            eprintln!("skipped {topic} message at log time {log_time_ns} ns: {reason}");
+        });
+        self.count += 1;
+        if self.kept.len() < MAX_PROBLEMS_KEPT {
+            self.kept.push(Problem {
+                topic: topic.to_owned(),
+                log_time_ns,
+                reason,
+            });
+        }
+    }
+}
+
+/// Rectifies every image topic of the bag at `input` that has a camera_info (the bag's
+/// `<ns>/camera_info` beside `<ns>/image_raw` or `<ns>/image`, or one given in
+/// `options`) into `<ns>/image_rect`, and writes it with copies of every input topic
+/// to the bag at `output` (atomically: nothing appears there unless the run succeeds).
+/// Bad messages are reported and skipped. `progress` counts rectified frames; pass
+/// [`ProgressBar::hidden`] for none.
+pub fn rectify_bag(
+    input: &Path,
+    output: &Path,
+    options: &BagRectifyOptions,
+    progress: &ProgressBar,
+) -> anyhow::Result<BagRectifyReport> {
+    let started = Instant::now();
+    let reader = BagReader::open(input).with_context(|| format!("opening {}", input.display()))?;
+    let mut writer = BagWriter::create_with(
+        output,
+        WriterOptions {
+            overwrite: options.overwrite,
+            ..WriterOptions::default()
+        },
+    )
+    .with_context(|| format!("creating {}", output.display()))?;
+
+    let mut copy_ids = BTreeMap::new();
+    for topic in reader.topics() {
+        let id = writer.add_topic_with_qos(
+            &topic.name,
+            &topic.type_name,
+            &topic.schema_text,
+            &offered_qos(&topic.offered_qos_profiles),
+        )?;
+        copy_ids.insert(topic.name.clone(), id);
+    }
+    let (mut cameras, unrectified_topics) = plan_cameras(&reader, options, &mut writer)?;
+    progress.set_length(
+        cameras
+            .iter()
+            .filter_map(|c| reader.topic(&c.image_topic))
+            .map(|t| t.message_count)
+            .sum(),
+    );
+
+    let mut problems = Problems {
+        progress,
+        kept: Vec::new(),
+        count: 0,
+    };
+    let mut copied = 0;
+    let mut damage = None;
+    for message in reader.messages(&TopicFilter::All) {
+        let message = match message {
+            Ok(message) => message,
+            Err(e) => {
+                damage = Some(e.to_string());
+                break;
+            }
+        };
+        if let Some(&id) = copy_ids.get(&*message.topic) {
+            writer.write_timed(
+                id,
+                message.log_time_ns,
+                message.publish_time_ns,
+                &message.data,
+            )?;
+            copied += 1;
+        }
+        for camera in cameras.iter_mut() {
+            if *message.topic == camera.image_topic {
+                camera.frames += 1;
+                match cdr::from_bytes::<ImageMsg>(&message.data) {
+                    Ok(image) => camera.pending.push_back((
+                        message.log_time_ns,
+                        message.publish_time_ns,
+                        image,
+                    )),
+                    Err(e) => {
+                        problems.report(&message.topic, message.log_time_ns, e.to_string());
+                        progress.inc(1);
+                    }
+                }
+            } else if matches!(&camera.source, InfoSource::Topic(t) if *t == *message.topic) {
+                match cdr::from_bytes::<CameraInfo>(&message.data) {
+                    Ok(info) => {
+                        if camera.recent_infos.len() == RECENT_INFOS {
+                            camera.recent_infos.pop_front();
+                        }
+                        camera.recent_infos.push_back(info);
+                    }
+                    Err(e) => problems.report(&message.topic, message.log_time_ns, e.to_string()),
+                }
+            } else {
+                continue;
+            }
+            camera.drain(false, &mut writer, &mut problems)?;
+        }
+    }
+    for camera in cameras.iter_mut() {
+        camera.drain(true, &mut writer, &mut problems)?;
+    }
+    let output = writer
+        .finish()
+        .with_context(|| format!("finishing {}", output.display()))?;
+    Ok(BagRectifyReport {
+        output,
+        topics: cameras
+            .iter()
+            .map(|c| TopicReport {
+                image_topic: c.image_topic.clone(),
+                rect_topic: c.rect_topic.clone(),
+                camera_info_source: c.source_label.clone(),
+                frames: c.frames,
+                rectified: c.rectified,
+                map_builds: c.rectifier.map_builds() as u64,
+            })
+            .collect(),
+        unrectified_topics,
+        copied,
+        problems: problems.kept,
+        problem_count: problems.count,
+        damage,
+        elapsed: started.elapsed(),
+    })
+}
+
+/// Decides which image topics are rectified, from what camera_info, into which topic,
+/// and adds the output topics to `writer`. Returns the cameras and the image topics
+/// left out with the reason.
+fn plan_cameras(
+    reader: &BagReader,
+    options: &BagRectifyOptions,
+    writer: &mut BagWriter,
+) -> anyhow::Result<(Vec<Camera>, Vec<(String, String)>)> {
+    let image_topics: Vec<&str> = reader
+        .topics()
+        .iter()
+        .filter(|t| t.type_name == ImageMsg::TYPE_NAME)
+        .map(|t| t.name.as_str())
+        .collect();
+    for (topic, _) in &options.camera_infos {
+        let names_image = image_topics.contains(&topic.as_str());
+        let names_info = topic.ends_with("/camera_info")
+            && image_topics
+                .iter()
+                .any(|t| namespace(t) == namespace(topic));
+        if !names_image && !names_info {
+            bail!(
+                "--camera-info {topic}: the bag has no image topic {topic} nor image topics beside it (image topics: {})",
+                image_topics.join(", ")
+            );
+        }
+    }
+    let mut cameras: Vec<Camera> = Vec::new();
+    let mut unrectified = Vec::new();
+    for &topic in &image_topics {
+        let ns = namespace(topic);
+        let info_topic = format!("{ns}/camera_info");
+        let given = options
+            .camera_infos
+            .iter()
+            .find(|(t, _)| t == topic || *t == info_topic);
+        let leaf = &topic[ns.len()..];
+        let conventional = leaf == "/image_raw" || leaf == "/image";
+        let (source, source_label) = match given {
+            Some((t, info)) => (
+                InfoSource::Fixed(Box::new(info.clone())),
+                format!("--camera-info {t}"),
+            ),
+            None if !conventional => {
+                unrectified.push((
+                    topic.to_owned(),
+                    "not named <ns>/image_raw or <ns>/image; give --camera-info for it".to_owned(),
+                ));
+                continue;
+            }
+            None => match reader.topic(&info_topic) {
+                Some(t) if t.type_name == CameraInfo::TYPE_NAME => {
+                    (InfoSource::Topic(info_topic.clone()), info_topic.clone())
+                }
+                _ => {
+                    unrectified.push((
+                        topic.to_owned(),
+                        format!("no {info_topic} in the bag and no --camera-info for it"),
+                    ));
+                    continue;
+                }
+            },
+        };
+        let rect_topic = format!("{ns}/image_rect");
+        if let Some(other) = cameras.iter().find(|c| c.rect_topic == rect_topic) {
+            // image_raw sorts after image: keep the raw stream, as the pipeline's input.
+            if leaf == "/image_raw" {
+                unrectified.push((
+                    other.image_topic.clone(),
+                    format!("{topic} is rectified into {rect_topic} instead"),
+                ));
+                cameras.retain(|c| c.rect_topic != rect_topic);
+            } else {
+                unrectified.push((
+                    topic.to_owned(),
+                    format!(
+                        "{} is rectified into {rect_topic} instead",
+                        other.image_topic
+                    ),
+                ));
+                continue;
+            }
+        }
+        if reader.topic(&rect_topic).is_some() {
+            bail!(
+                "the input bag already has {rect_topic}; rectifying {topic} would mix two streams on it"
+            );
+        }
+        let rect_id =
+            writer.add_topic(&rect_topic, ImageMsg::TYPE_NAME, &ImageMsg::schema_text())?;
+        cameras.push(Camera {
+            image_topic: topic.to_owned(),
+            rect_topic,
+            rect_id,
+            source,
+            source_label,
+            recent_infos: VecDeque::new(),
+            pending: VecDeque::new(),
+            rectifier: Rectifier::new(options.remap),
+            frames: 0,
+            rectified: 0,
+        });
+    }
+    Ok((cameras, unrectified))
+}
+
+impl Camera {
+    /// Rectifies the waiting images that can be paired now; with `finish`, all of them.
+    fn drain(
+        &mut self,
+        finish: bool,
+        writer: &mut BagWriter,
+        problems: &mut Problems<'_>,
+    ) -> anyhow::Result<()> {
+        while let Some((_, _, image)) = self.pending.front() {
+            let stamp = image.header.stamp;
+            let info = match &self.source {
+                InfoSource::Fixed(info) => Some(info.as_ref()),
+                InfoSource::Topic(_) => {
+                    let exact = self
+                        .recent_infos
+                        .iter()
+                        .rev()
+                        .find(|i| i.header.stamp == stamp);
+                    let newer_arrived = self.recent_infos.iter().any(|i| i.header.stamp > stamp);
+                    let stop_waiting = finish || self.pending.len() > MAX_PENDING || newer_arrived;
+                    match exact {
+                        Some(info) => Some(info),
+                        None if !stop_waiting => return Ok(()),
+                        None => {
+                            self.recent_infos.iter().rev().min_by_key(|i| {
+                                (i.header.stamp.as_nanos() - stamp.as_nanos()).abs()
+                            })
+                        }
+                    }
+                }
+            };
+            let Some((log_time_ns, publish_time_ns, image)) = self.pending.pop_front() else {
+                break;
+            };
+            problems.progress.inc(1);
+            let Some(info) = info else {
+                problems.report(
+                    &self.image_topic,
+                    log_time_ns,
+                    format!("no camera_info on {} before this image", self.source_label),
+                );
+                continue;
+            };
+            match self.rectifier.rectify(&image, info) {
+                Ok(Rectified::Image(rect)) => {
+                    let data = cdr::to_bytes(&rect)
+                        .with_context(|| format!("encoding {}", self.rect_topic))?;
+                    writer.write_timed(self.rect_id, log_time_ns, publish_time_ns, &data)?;
+                    self.rectified += 1;
+                }
+                Ok(Rectified::Uncalibrated { warning }) => {
+                    if let Some(warning) = warning {
+                        problems.report(&self.image_topic, log_time_ns, warning);
+                    }
+                }
+                Err(e) => problems.report(&self.image_topic, log_time_ns, e.to_string()),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The namespace of a topic: everything before its last `/`.
+fn namespace(topic: &str) -> &str {
+    topic.rsplit_once('/').map_or("", |(ns, _)| ns)
+}
+
+/// The QoS a topic was recorded with, from rosbag2's `offered_qos_profiles` YAML (the
+/// first profile; rmw enum values), or the ROS 2 default when absent or unreadable.
+fn offered_qos(yaml: &str) -> OfferedQos {
+    let default = OfferedQos::default();
+    let Ok(profiles) = serde_yaml::from_str::<serde_yaml::Value>(yaml) else {
+        return default;
+    };
+    let Some(profile) = profiles.as_sequence().and_then(|p| p.first()) else {
+        return default;
+    };
+    let number = |key: &str| profile.get(key).and_then(serde_yaml::Value::as_u64);
+    OfferedQos {
+        reliability: match number("reliability") {
+            Some(2) => Reliability::BestEffort,
+            _ => Reliability::Reliable,
+        },
+        durability: match number("durability") {
+            Some(1) => Durability::TransientLocal,
+            _ => Durability::Volatile,
+        },
+        depth: number("depth")
+            .and_then(|d| u32::try_from(d).ok())
+            .filter(|&d| d > 0)
+            .unwrap_or(default.depth),
+    }
+}
