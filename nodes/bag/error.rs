@@ -72,6 +72,17 @@ pub enum BagError {
         reason: String,
     },
 
+    /// A message could not be decoded as the type asked for.
+    #[error("message on {topic} ({type_name}): {reason}")]
+    Decode {
+        /// The message's topic.
+        topic: String,
+        /// The topic's type.
+        type_name: String,
+        /// What failed.
+        reason: String,
+    },
+
     /// The MCAP library reported an error while writing.
     #[error("{path}: writing MCAP failed: {source}")]
     Mcap {
@@ -126,6 +137,15 @@ impl BagError {
             },
             Self::Write { path, reason } => Self::Write {
                 path: path.clone(),
+                reason: reason.clone(),
+            },
+            Self::Decode {
+                topic,
+                type_name,
+                reason,
+            } => Self::Decode {
+                topic: topic.clone(),
+                type_name: type_name.clone(),
                 reason: reason.clone(),
             },
             Self::Mcap { path, source } => Self::Write {

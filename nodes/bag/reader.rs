@@ -5,6 +5,9 @@ use std::fs::File;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+use serde::de::DeserializeOwned;
+use stereocal_msgs::RosMessage;
+
 use super::error::BagError;
 use super::file_index::{FileIndex, index_file};
 use super::metadata;
@@ -45,6 +48,21 @@ pub struct BagMessage {
     pub sequence: u32,
     /// The serialized message (CDR with its 4-byte encapsulation header).
     pub data: Vec<u8>,
+}
+
+impl BagMessage {
+    /// Decodes the message as `M`, checking that the topic's type is `M`'s.
+    pub fn decode<M: RosMessage + DeserializeOwned>(&self) -> Result<M, BagError> {
+        let failed = |reason: String| BagError::Decode {
+            topic: self.topic.to_string(),
+            type_name: self.type_name.to_string(),
+            reason,
+        };
+        if &*self.type_name != M::TYPE_NAME {
+            return Err(failed(format!("expected {}", M::TYPE_NAME)));
+        }
+        stereocal_msgs::cdr::from_bytes(&self.data).map_err(|e| failed(e.to_string()))
+    }
 }
 
 /// Which topics to read.

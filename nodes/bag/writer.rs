@@ -13,6 +13,8 @@ use super::metadata::{
     TopicMetadata, TopicWithCount,
 };
 use super::qos::OfferedQos;
+use serde::Serialize;
+use stereocal_msgs::RosMessage;
 
 /// How chunks are compressed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -254,6 +256,40 @@ impl BagWriter {
             }
         }
         Ok(id)
+    }
+
+    /// Adds a topic of message type `M` (its type name and `ros2msg` schema) recorded
+    /// with `qos`.
+    pub fn add_message_topic<M: RosMessage>(
+        &mut self,
+        name: &str,
+        qos: &OfferedQos,
+    ) -> Result<TopicId, BagError> {
+        self.add_topic_with_qos(name, M::TYPE_NAME, &M::schema_text(), qos)
+    }
+
+    /// CDR-encodes `message` and writes it at `log_time_ns`; the topic must have type
+    /// `M`.
+    pub fn write_message<M: RosMessage + Serialize>(
+        &mut self,
+        topic: TopicId,
+        log_time_ns: u64,
+        message: &M,
+    ) -> Result<(), BagError> {
+        let Some(entry) = self.topics.get(topic.0) else {
+            return Err(self.refused(format!("unknown topic id {}", topic.0)));
+        };
+        if entry.type_name != M::TYPE_NAME {
+            return Err(self.refused(format!(
+                "topic {} has type {}, cannot write a {}",
+                entry.name,
+                entry.type_name,
+                M::TYPE_NAME
+            )));
+        }
+        let data = stereocal_msgs::cdr::to_bytes(message)
+            .map_err(|e| self.refused(format!("topic {}: {e}", entry.name)))?;
+        self.write(topic, log_time_ns, &data)
     }
 
     /// Writes one message, CDR-encoded, received at `log_time_ns` (nanoseconds since the
