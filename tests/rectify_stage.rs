@@ -58,7 +58,11 @@ fn pattern(encoding: Encoding, sec: i32) -> ImageMsg {
     let mut data = vec![0u8; (step * HEIGHT) as usize];
     for y in 0..HEIGHT {
         for x in 0..WIDTH {
-            let check = if (x / 8 + y / 8) % 2 == 0 { 200 } else { 30 };
+            let check = if (x / 8 + y / 8).is_multiple_of(2) {
+                200
+            } else {
+                30
+            };
             for b in 0..bpp {
                 let value = (check + x + 2 * y + 17 * b) % 256;
                 data[(y * step + x * bpp + b) as usize] = value as u8;

@@ -100,6 +100,15 @@ pub struct Problem {
     pub reason: String,
 }
 
+/// An image topic left unrectified.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct UnrectifiedTopic {
+    /// The image topic.
+    pub topic: String,
+    /// Why it was not rectified.
+    pub reason: String,
+}
+
 /// The outcome of [`rectify_bag`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct BagRectifyReport {
@@ -107,8 +116,8 @@ pub struct BagRectifyReport {
     pub output: PathBuf,
     /// Per rectified camera, in topic order.
     pub topics: Vec<TopicReport>,
-    /// Image topics left unrectified, with the reason.
-    pub unrectified_topics: Vec<(String, String)>,
+    /// Image topics left unrectified.
+    pub unrectified_topics: Vec<UnrectifiedTopic>,
     /// Messages copied from the input.
     pub copied: u64,
     /// Messages that could not be used (the first [`MAX_PROBLEMS_KEPT`]).
@@ -184,8 +193,8 @@ fn print_summary(report: &BagRectifyReport) {
             t.image_topic, t.rect_topic, t.rectified, t.frames, t.map_builds, t.camera_info_source
         );
     }
-    for (topic, reason) in &report.unrectified_topics {
-        eprintln!("  {topic}: not rectified: {reason}");
+    for t in &report.unrectified_topics {
+        eprintln!("  {}: not rectified: {}", t.topic, t.reason);
     }
     if report.problem_count > 0 {
         eprintln!(
@@ -373,7 +382,7 @@ fn plan_cameras(
     reader: &BagReader,
     options: &BagRectifyOptions,
     writer: &mut BagWriter,
-) -> anyhow::Result<(Vec<Camera>, Vec<(String, String)>)> {
+) -> anyhow::Result<(Vec<Camera>, Vec<UnrectifiedTopic>)> {
     let image_topics: Vec<&str> = reader
         .topics()
         .iter()
@@ -410,10 +419,11 @@ fn plan_cameras(
                 format!("--camera-info {t}"),
             ),
             None if !conventional => {
-                unrectified.push((
-                    topic.to_owned(),
-                    "not named <ns>/image_raw or <ns>/image; give --camera-info for it".to_owned(),
-                ));
+                unrectified.push(UnrectifiedTopic {
+                    topic: topic.to_owned(),
+                    reason: "not named <ns>/image_raw or <ns>/image; give --camera-info for it"
+                        .to_owned(),
+                });
                 continue;
             }
             None => match reader.topic(&info_topic) {
@@ -421,10 +431,10 @@ fn plan_cameras(
                     (InfoSource::Topic(info_topic.clone()), info_topic.clone())
                 }
                 _ => {
-                    unrectified.push((
-                        topic.to_owned(),
-                        format!("no {info_topic} in the bag and no --camera-info for it"),
-                    ));
+                    unrectified.push(UnrectifiedTopic {
+                        topic: topic.to_owned(),
+                        reason: format!("no {info_topic} in the bag and no --camera-info for it"),
+                    });
                     continue;
                 }
             },
@@ -433,19 +443,19 @@ fn plan_cameras(
         if let Some(other) = cameras.iter().find(|c| c.rect_topic == rect_topic) {
             // image_raw sorts after image: keep the raw stream, as the pipeline's input.
             if leaf == "/image_raw" {
-                unrectified.push((
-                    other.image_topic.clone(),
-                    format!("{topic} is rectified into {rect_topic} instead"),
-                ));
+                unrectified.push(UnrectifiedTopic {
+                    topic: other.image_topic.clone(),
+                    reason: format!("{topic} is rectified into {rect_topic} instead"),
+                });
                 cameras.retain(|c| c.rect_topic != rect_topic);
             } else {
-                unrectified.push((
-                    topic.to_owned(),
-                    format!(
+                unrectified.push(UnrectifiedTopic {
+                    topic: topic.to_owned(),
+                    reason: format!(
                         "{} is rectified into {rect_topic} instead",
                         other.image_topic
                     ),
-                ));
+                });
                 continue;
             }
         }
