@@ -1,0 +1,470 @@
+//! End to end over DDS on loopback: the built `rectify_node` binary, on its own ROS
+//! domain, rectifies what this test publishes exactly as the rectify stage does, serves
+//! its parameters through the ROS 2 parameter services, and stops cleanly on SIGTERM.
+
+use std::io::Read;
+use std::process::{Child, Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use futures::FutureExt;
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::parameters::raw;
+use ros2_client::rcl_interfaces::{
+    DescribeParametersRequest, DescribeParametersResponse, GetParametersRequest,
+    GetParametersResponse, ListParametersRequest, ListParametersResponse, SetParametersRequest,
+    SetParametersResponse,
+};
+use ros2_client::service::Client;
+use ros2_client::{
+    Context, Message, MessageTypeName, Name, Node, NodeName, NodeOptions, Parameter,
+    ParameterValue, QosProfile, ServiceMapping, ServiceTypeName,
+};
+use stereocal::rectify_stage::{Rectified, Rectifier};
+use stereocal::runtime::qos;
+use stereocal_msgs::builtin_interfaces::Time;
+use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
+use stereocal_msgs::std_msgs::Header;
+use stereocal_vision::rectify::RemapOptions;
+
+const WIDTH: u32 = 320;
+const HEIGHT: u32 = 240;
+const TIMEOUT: Duration = Duration::from_secs(20);
+
+/// A domain id of this test process, distinct per test (`slot`) and likely distinct
+/// from concurrently running test processes.
+fn domain_id(slot: u16) -> u16 {
+    let pid = u16::try_from(std::process::id() % 50).unwrap_or(0);
+    20 + pid * 4 + slot
+}
+
+/// The node process; killed if the test ends early, with its stderr collected.
+struct NodeProcess {
+    child: Child,
+    stderr: Arc<Mutex<String>>,
+    reader: Option<JoinHandle<()>>,
+}
+
+impl NodeProcess {
+    fn start(domain: u16, extra: &[&str]) -> NodeProcess {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_rectify_node"))
+            .args(["--ros-args", "-r", "__ns:=/cam", "-r", "image:=image_raw"])
+            .args(extra)
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("rectify_node starts");
+        let stderr = Arc::new(Mutex::new(String::new()));
+        let mut pipe = child.stderr.take().expect("stderr is piped");
+        let sink = Arc::clone(&stderr);
+        let reader = std::thread::spawn(move || {
+            let mut text = String::new();
+            let _ = pipe.read_to_string(&mut text);
+            sink.lock().expect("stderr lock").push_str(&text);
+        });
+        NodeProcess {
+            child,
+            stderr,
+            reader: Some(reader),
+        }
+    }
+
+    /// Sends SIGTERM, waits for the exit, and returns whether it succeeded and stderr.
+    fn terminate(mut self) -> (bool, String) {
+        let status = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status()
+            .expect("kill runs");
+        assert!(status.success());
+        let deadline = Instant::now() + Duration::from_secs(10);
+        let exit = loop {
+            match self.child.try_wait().expect("wait on rectify_node") {
+                Some(exit) => break exit,
+                None if Instant::now() > deadline => panic!("rectify_node ignored SIGTERM"),
+                None => std::thread::sleep(Duration::from_millis(50)),
+            }
+        };
+        if let Some(reader) = self.reader.take() {
+            let _ = reader.join();
+        }
+        let text = self.stderr.lock().expect("stderr lock").clone();
+        (exit.success(), text)
+    }
+}
+
+impl Drop for NodeProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// This test's own ROS node, with its spinner running.
+struct TestNode {
+    node: Node,
+    _spinner: JoinHandle<()>,
+}
+
+fn test_node(domain: u16, name: &str) -> TestNode {
+    let participant = DomainParticipantBuilder::new(domain)
+        .build()
+        .expect("participant");
+    let context = Context::from_domain_participant(participant).expect("context");
+    let mut node = context
+        .new_node(
+            NodeName::new("/test", name).expect("name"),
+            NodeOptions::new().enable_rosout(false),
+        )
+        .expect("node");
+    let spinner = node.spinner().expect("spinner");
+    let spinner = std::thread::spawn(move || {
+        let _ = futures::executor::block_on(spinner.spin());
+    });
+    TestNode {
+        node,
+        _spinner: spinner,
+    }
+}
+
+/// Runs `future` to completion, or gives up after `limit`.
+fn block_on_timeout<T>(future: impl Future<Output = T>, limit: Duration) -> Option<T> {
+    let (done, timer) = futures::channel::oneshot::channel::<()>();
+    std::thread::spawn(move || {
+        std::thread::sleep(limit);
+        let _ = done.send(());
+    });
+    futures::executor::block_on(async {
+        futures::select! {
+            value = future.fuse() => Some(value),
+            _ = timer.fuse() => None,
+        }
+    })
+}
+
+fn camera_info(stamp: Time) -> CameraInfo {
+    let angle: f64 = 0.03;
+    let (s, c) = angle.sin_cos();
+    CameraInfo {
+        header: Header {
+            stamp,
+            frame_id: "cam_optical".into(),
+        },
+        width: WIDTH,
+        height: HEIGHT,
+        distortion_model: "plumb_bob".into(),
+        d: vec![-0.25, 0.08, 0.001, -0.0005, 0.0],
+        k: [260.0, 0.0, 161.5, 0.0, 262.0, 118.5, 0.0, 0.0, 1.0],
+        r: [c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c],
+        p: [
+            240.0, 0.0, 158.0, 0.0, 0.0, 240.0, 121.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+        ],
+        ..CameraInfo::default()
+    }
+}
+
+fn image(stamp: Time, rgb: bool, seed: u32) -> Image {
+    let channels = if rgb { 3 } else { 1 };
+    let step = WIDTH * channels;
+    let data = (0..HEIGHT)
+        .flat_map(|y| {
+            (0..step).map(move |i| {
+                let x = i / channels;
+                let checker = ((x / 20 + y / 20) % 2) * 160;
+                (checker + (x * 3 + y * 5 + i % channels * 40 + seed * 11) % 90) as u8
+            })
+        })
+        .collect();
+    Image {
+        header: Header {
+            stamp,
+            frame_id: "cam_optical".into(),
+        },
+        height: HEIGHT,
+        width: WIDTH,
+        encoding: if rgb { "rgb8" } else { "mono8" }.into(),
+        is_bigendian: 0,
+        step,
+        data,
+    }
+}
+
+fn topic(node: &mut Node, name: &str, type_name: &str) -> ros2_client::dds::rustdds::Topic {
+    node.create_topic(
+        &Name::parse(name).expect("topic name"),
+        MessageTypeName::new("sensor_msgs", type_name),
+        &qos::reliable(10),
+    )
+    .expect("topic")
+}
+
+#[test]
+fn rectifies_every_frame_like_the_stage_and_stops_on_sigterm() {
+    let domain = domain_id(0);
+    let process = NodeProcess::start(domain, &["-p", "interpolation:=1"]);
+    let TestNode { mut node, _spinner } = test_node(domain, "frames");
+    let image_topic = topic(&mut node, "/cam/image_raw", "Image");
+    let info_topic = topic(&mut node, "/cam/camera_info", "CameraInfo");
+    let rect_topic = topic(&mut node, "/cam/image_rect", "Image");
+    let image_pub = node
+        .create_publisher::<Image>(&image_topic, Some(qos::reliable(10)))
+        .expect("image publisher");
+    let info_pub = node
+        .create_publisher::<CameraInfo>(&info_topic, Some(qos::reliable(10)))
+        .expect("camera_info publisher");
+    let rect_sub = node
+        .create_subscription::<Image>(&rect_topic, Some(qos::reliable(50)))
+        .expect("image_rect subscription");
+
+    let matched = block_on_timeout(
+        async {
+            image_pub.wait_for_subscription(&node).await;
+            info_pub.wait_for_subscription(&node).await;
+            rect_sub.wait_for_publisher(&node).await;
+        },
+        TIMEOUT,
+    );
+    assert!(matched.is_some(), "rectify_node was not discovered");
+
+    // Mono and colour frames, and one whose step disagrees with its width: the node
+    // must log it and keep going.
+    let mut expected = Vec::new();
+    let mut rectifier = Rectifier::new(RemapOptions::default());
+    for i in 1..=12u32 {
+        let stamp = Time {
+            sec: 100,
+            nanosec: i * 1_000_000,
+        };
+        let mut frame = image(stamp, i % 4 == 0, i);
+        let info = camera_info(stamp);
+        if i == 6 {
+            frame.step += 1;
+        } else {
+            match rectifier.rectify(&frame, &info) {
+                Ok(Rectified::Image(rect)) => expected.push(rect),
+                other => panic!("the stage did not rectify frame {i}: {other:?}"),
+            }
+        }
+        info_pub.publish(info).expect("publish camera_info");
+        image_pub.publish(frame).expect("publish image");
+        std::thread::sleep(Duration::from_millis(80));
+    }
+
+    let mut received: Vec<Image> = Vec::new();
+    let deadline = Instant::now() + TIMEOUT;
+    while received.len() < expected.len() && Instant::now() < deadline {
+        match rect_sub.take() {
+            Ok(Some((image, _))) => received.push(image),
+            Ok(None) => std::thread::sleep(Duration::from_millis(10)),
+            Err(e) => panic!("image_rect did not decode: {e:?}"),
+        }
+    }
+    assert_eq!(
+        received.len(),
+        expected.len(),
+        "frames missing from image_rect"
+    );
+    for (got, want) in received.iter().zip(&expected) {
+        assert_eq!(got.header, want.header);
+        assert_eq!(got.encoding, want.encoding);
+        assert_eq!(
+            (got.width, got.height, got.step),
+            (want.width, want.height, want.step)
+        );
+        assert!(
+            got.data == want.data,
+            "pixels of frame {:?} differ",
+            got.header.stamp
+        );
+    }
+
+    let (clean, stderr) = process.terminate();
+    assert!(clean, "rectify_node failed on SIGTERM:\n{stderr}");
+    assert!(
+        stderr.contains("not rectified"),
+        "bad frame not reported:\n{stderr}"
+    );
+    assert!(
+        stderr.contains("12 image(s) received, 11 published, 0 dropped"),
+        "unexpected summary:\n{stderr}"
+    );
+}
+
+fn service_qos() -> QosProfile {
+    qos::reliable(1)
+}
+
+fn client<Req, Resp>(node: &mut Node, service: &str, type_name: &str) -> Client<Req, Resp>
+where
+    Req: Message + Clone + 'static,
+    Resp: Message + 'static,
+{
+    node.create_client::<Req, Resp>(
+        ServiceMapping::Enhanced,
+        &Name::new("/cam/rectify_node", service).expect("service name"),
+        &ServiceTypeName::new("rcl_interfaces", type_name),
+        service_qos(),
+        service_qos(),
+    )
+    .expect("client")
+}
+
+fn call<Req, Resp>(node: &Node, client: &Client<Req, Resp>, request: Req) -> Resp
+where
+    Req: Message + Clone + 'static,
+    Resp: Message + 'static,
+{
+    let found = block_on_timeout(client.wait_for_service(node), TIMEOUT);
+    assert!(found.is_some(), "parameter service not discovered");
+    // A reply sent before the server has matched our response reader is lost (the
+    // service topics are volatile), so a call that goes unanswered is repeated.
+    for _ in 0..10 {
+        let response = block_on_timeout(
+            client.async_call_service(request.clone()),
+            Duration::from_secs(2),
+        );
+        match response {
+            Some(Ok(response)) => return response,
+            Some(Err(e)) => panic!("service call failed: {e:?}"),
+            None => continue,
+        }
+    }
+    panic!("parameter service never answered")
+}
+
+fn set(
+    node: &Node,
+    client: &Client<SetParametersRequest, SetParametersResponse>,
+    name: &str,
+    value: ParameterValue,
+) -> raw::SetParametersResult {
+    let mut response = call(
+        node,
+        client,
+        SetParametersRequest {
+            parameter: vec![
+                Parameter {
+                    name: name.into(),
+                    value,
+                }
+                .into(),
+            ],
+        },
+    );
+    response.results.pop().expect("one result")
+}
+
+#[test]
+fn parameters_are_served_and_checked() {
+    let domain = domain_id(1);
+    let params_file = tempfile::NamedTempFile::new().expect("temp file");
+    std::fs::write(
+        params_file.path(),
+        "/**:\n  ros__parameters:\n    queue_size: 7\n/cam/rectify_node:\n  ros__parameters:\n    interpolation: 2\n",
+    )
+    .expect("write params file");
+    let path = params_file.path().to_string_lossy().into_owned();
+    let process = NodeProcess::start(domain, &["--params-file", &path]);
+    let TestNode { mut node, _spinner } = test_node(domain, "params");
+
+    let list = client::<ListParametersRequest, ListParametersResponse>(
+        &mut node,
+        "list_parameters",
+        "ListParameters",
+    );
+    let names = call(
+        &node,
+        &list,
+        ListParametersRequest {
+            prefixes: vec![],
+            depth: 0,
+        },
+    )
+    .result
+    .names;
+    for name in ["interpolation", "queue_size", "use_sim_time"] {
+        assert!(
+            names.iter().any(|n| n == name),
+            "{name} not listed: {names:?}"
+        );
+    }
+
+    let get = client::<GetParametersRequest, GetParametersResponse>(
+        &mut node,
+        "get_parameters",
+        "GetParameters",
+    );
+    let get_values = |node: &Node| -> Vec<ParameterValue> {
+        call(
+            node,
+            &get,
+            GetParametersRequest {
+                names: vec!["interpolation".into(), "queue_size".into()],
+            },
+        )
+        .values
+        .into_iter()
+        .map(ParameterValue::from)
+        .collect()
+    };
+    assert_eq!(
+        get_values(&node),
+        vec![ParameterValue::Integer(2), ParameterValue::Integer(7)]
+    );
+
+    let describe = client::<DescribeParametersRequest, DescribeParametersResponse>(
+        &mut node,
+        "describe_parameters",
+        "DescribeParameters",
+    );
+    let descriptors = call(
+        &node,
+        &describe,
+        DescribeParametersRequest {
+            names: vec!["interpolation".into()],
+        },
+    )
+    .values;
+    assert_eq!(descriptors.len(), 1);
+    assert_eq!(descriptors[0].name, "interpolation");
+    assert_eq!(
+        descriptors[0].r#type, 2,
+        "interpolation is an integer parameter"
+    );
+
+    let setter = client::<SetParametersRequest, SetParametersResponse>(
+        &mut node,
+        "set_parameters",
+        "SetParameters",
+    );
+    let wrong_type = set(
+        &node,
+        &setter,
+        "interpolation",
+        ParameterValue::String("cubic".into()),
+    );
+    assert!(!wrong_type.successful);
+    assert!(
+        wrong_type.reason.contains("type"),
+        "reason: {}",
+        wrong_type.reason
+    );
+    let out_of_range = set(&node, &setter, "interpolation", ParameterValue::Integer(3));
+    assert!(!out_of_range.successful);
+    assert!(
+        out_of_range.reason.contains("out of range 0..=2"),
+        "reason: {}",
+        out_of_range.reason
+    );
+    let accepted = set(&node, &setter, "interpolation", ParameterValue::Integer(0));
+    assert!(accepted.successful, "reason: {}", accepted.reason);
+    assert_eq!(
+        get_values(&node),
+        vec![ParameterValue::Integer(0), ParameterValue::Integer(7)]
+    );
+
+    let (clean, stderr) = process.terminate();
+    assert!(clean, "rectify_node failed on SIGTERM:\n{stderr}");
+}
