@@ -45,9 +45,11 @@ def rotation(rx, ry, rz):
 
 def cases(width, height):
     """camera_info-like dicts for plumb_bob, rational_polynomial and equidistant."""
-    s = width / 640.0
-    k = [420.0 * s, 0.0, 322.5 * s, 0.0, 418.0 * s, 241.3 * s, 0.0, 0.0, 1.0]
-    p = [400.0 * s, 0.0, 318.0 * s, -40.0 * s, 0.0, 400.0 * s, 244.0 * s, 0.0, 0.0, 0.0, 1.0, 0.0]
+    # Designed at 640x480; other sizes scale focal lengths with the width and the
+    # principal point with each side.
+    s, t = width / 640.0, height / 480.0
+    k = [420.0 * s, 0.0, 322.5 * s, 0.0, 418.0 * s, 241.3 * t, 0.0, 0.0, 1.0]
+    p = [400.0 * s, 0.0, 318.0 * s, -40.0 * s, 0.0, 400.0 * s, 244.0 * t, 0.0, 0.0, 0.0, 1.0, 0.0]
     r = rotation(0.012, -0.021, 0.004).flatten().tolist()
     return {
         name: {

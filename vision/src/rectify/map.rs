@@ -11,11 +11,11 @@
 //! 1/64 pixel of the exact one. Positions farther than 32767 pixels from the origin are
 //! clamped to the `i16` range; they lie outside any image and sample the border.
 
-use nalgebra::{Matrix3, Matrix3x4, Vector3};
+use nalgebra::{Matrix3, Matrix3x4};
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::camera::{CameraModel, Distortion};
+use crate::camera::{CameraModel, Distortion, Intrinsics};
 
 /// Bits of sub-pixel precision of a map position (OpenCV's `INTER_BITS`).
 pub const INTER_BITS: u32 = 5;
@@ -93,11 +93,28 @@ impl RectifyMap {
         let original_from_pixel = (new_camera * rectified_from_original)
             .try_inverse()
             .ok_or(MapError::SingularProjection)?;
-        let distortion = camera.distortion.clone();
-        Self::from_fn(width, height, |x, y| {
-            let ray = original_from_pixel * Vector3::new(x as f64, y as f64, 1.0);
-            source_pixel(&distortion, k.fx, k.fy, k.cx, k.cy, &ray)
-        })
+        let ir: [f64; 9] = original_from_pixel
+            .transpose()
+            .as_slice()
+            .try_into()
+            .map_err(|_| MapError::SingularProjection)?;
+        // One monomorphized per-pixel function per model keeps the model dispatch out of
+        // the pixel loop.
+        match camera.distortion {
+            Distortion::PlumbBob {
+                coeffs: [k1, k2, p1, p2, k3],
+            } => Self::from_fn(
+                width,
+                height,
+                pinhole(ir, k, [k1, k2, p1, p2, k3, 0.0, 0.0, 0.0]),
+            ),
+            Distortion::RationalPolynomial { coeffs } => {
+                Self::from_fn(width, height, pinhole(ir, k, coeffs))
+            }
+            Distortion::Equidistant { coeffs } => {
+                Self::from_fn(width, height, fisheye(ir, k, coeffs))
+            }
+        }
     }
 
     /// The map that only undistorts `camera` at its own size and camera matrix (OpenCV's
@@ -187,55 +204,82 @@ impl RectifyMap {
     }
 }
 
-/// The distorted pixel of the ray `ray` (in the original camera frame), with OpenCV's
-/// formulas and degenerate cases: pinhole models divide by `z` whatever its sign, the
-/// fisheye model sends rays at or behind the image plane to infinity.
-fn source_pixel(
-    distortion: &Distortion,
-    fx: f64,
-    fy: f64,
-    cx: f64,
-    cy: f64,
-    ray: &Vector3<f64>,
-) -> (f64, f64) {
-    if let Distortion::Equidistant { .. } = distortion
-        && ray.z <= 0.0
-    {
-        let u = if ray.x > 0.0 {
-            f64::NEG_INFINITY
-        } else {
-            f64::INFINITY
-        };
-        let v = if ray.y > 0.0 {
-            f64::NEG_INFINITY
-        } else {
-            f64::INFINITY
-        };
-        return (u, v);
+/// The source pixel of output pixel `(x, y)` for the pinhole models, OpenCV's
+/// `initUndistortRectifyMap` formulas: `ir` is `(P[:, :3] * R)^-1` row-major, `d` the
+/// rational_polynomial coefficients `k1 k2 p1 p2 k3 k4 k5 k6` (plumb_bob: `k4..k6 = 0`).
+/// The ray is divided by its `z` whatever its sign, as OpenCV does.
+fn pinhole(ir: [f64; 9], k: Intrinsics, d: [f64; 8]) -> impl Fn(usize, usize) -> (f64, f64) + Sync {
+    let [k1, k2, p1, p2, k3, k4, k5, k6] = d;
+    move |x, y| {
+        let (x, y) = (x as f64, y as f64);
+        let rx = ir[0] * x + ir[1] * y + ir[2];
+        let ry = ir[3] * x + ir[4] * y + ir[5];
+        let rw = ir[6] * x + ir[7] * y + ir[8];
+        let w = 1.0 / rw;
+        let (x, y) = (rx * w, ry * w);
+        let (x2, y2) = (x * x, y * y);
+        let r2 = x2 + y2;
+        let xy2 = 2.0 * x * y;
+        let kr = (1.0 + ((k3 * r2 + k2) * r2 + k1) * r2) / (1.0 + ((k6 * r2 + k5) * r2 + k4) * r2);
+        let xd = x * kr + p1 * xy2 + p2 * (r2 + 2.0 * x2);
+        let yd = y * kr + p1 * (r2 + 2.0 * y2) + p2 * xy2;
+        (k.fx * xd + k.cx, k.fy * yd + k.cy)
     }
-    let w = 1.0 / ray.z;
-    let d = distortion.distort(&nalgebra::Vector2::new(ray.x * w, ray.y * w));
-    (fx * d.x + cx, fy * d.y + cy)
+}
+
+/// The source pixel of output pixel `(x, y)` for the equidistant model, OpenCV's
+/// `fisheye::initUndistortRectifyMap` formulas; rays at or behind the image plane go to
+/// infinity (the border).
+fn fisheye(ir: [f64; 9], k: Intrinsics, d: [f64; 4]) -> impl Fn(usize, usize) -> (f64, f64) + Sync {
+    move |x, y| {
+        let (x, y) = (x as f64, y as f64);
+        let rx = ir[0] * x + ir[1] * y + ir[2];
+        let ry = ir[3] * x + ir[4] * y + ir[5];
+        let rw = ir[6] * x + ir[7] * y + ir[8];
+        if rw <= 0.0 {
+            let u = if rx > 0.0 {
+                f64::NEG_INFINITY
+            } else {
+                f64::INFINITY
+            };
+            let v = if ry > 0.0 {
+                f64::NEG_INFINITY
+            } else {
+                f64::INFINITY
+            };
+            return (u, v);
+        }
+        let (x, y) = (rx / rw, ry / rw);
+        let r = (x * x + y * y).sqrt();
+        let theta = r.atan();
+        let theta2 = theta * theta;
+        let theta4 = theta2 * theta2;
+        let theta6 = theta4 * theta2;
+        let theta8 = theta4 * theta4;
+        let theta_d = theta * (1.0 + d[0] * theta2 + d[1] * theta4 + d[2] * theta6 + d[3] * theta8);
+        let scale = if r == 0.0 { 1.0 } else { theta_d / r };
+        (k.fx * x * scale + k.cx, k.fy * y * scale + k.cy)
+    }
 }
 
 /// `round(v * 32)`, half to even like OpenCV's `cvRound`, clamped so that the integer
 /// part fits in `i16`; NaN goes far outside any image.
 fn fixed_point(v: f64) -> i32 {
+    // Adding and subtracting 1.5 * 2^52 rounds to the nearest integer, ties to even, for
+    // |v| < 2^51; larger magnitudes stay far beyond the clamp with their sign, so no
+    // branch is needed.
+    const ROUND: f64 = 6_755_399_441_055_744.0;
     let lo = f64::from(i32::from(i16::MIN) * INTER_TAB_SIZE);
     let hi = f64::from(i32::from(i16::MAX) * INTER_TAB_SIZE + FRACTION_MASK);
-    if v.is_nan() {
-        return lo as i32;
-    }
-    (v * f64::from(INTER_TAB_SIZE))
-        .round_ties_even()
-        .clamp(lo, hi) as i32
+    let rounded = (v * f64::from(INTER_TAB_SIZE) + ROUND) - ROUND;
+    // `max` maps NaN to `lo`.
+    rounded.max(lo).min(hi) as i32
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::Intrinsics;
-    use nalgebra::{Point3, Rotation3};
+    use nalgebra::{Point3, Rotation3, Vector3};
 
     fn camera(distortion: Distortion) -> CameraModel {
         CameraModel {
@@ -315,6 +359,18 @@ mod tests {
         // 3.5 -> 112 = 3*32 + 16; -0.25 -> -8 = -1*32 + 24. -1/64 rounds to even 0.
         assert_eq!(map.fraction(), &[(24 << 5) | 16, 0]);
         assert_eq!(map.source_position(0, 0), Some((3.5, -0.25)));
+    }
+
+    #[test]
+    fn fixed_point_rounds_half_to_even() {
+        let half_step = 1.0 / 64.0;
+        assert_eq!(fixed_point(half_step), 0);
+        assert_eq!(fixed_point(3.0 * half_step), 2);
+        assert_eq!(fixed_point(-half_step), 0);
+        assert_eq!(fixed_point(-3.0 * half_step), -2);
+        assert_eq!(fixed_point(100.3), 3210);
+        assert_eq!(fixed_point(-1e300), i32::from(i16::MIN) * 32);
+        assert_eq!(fixed_point(1e300), i32::from(i16::MAX) * 32 + 31);
     }
 
     #[test]
