@@ -147,16 +147,13 @@ impl RectifyMap {
             .zip(fraction.par_chunks_mut(width))
             .enumerate()
             .for_each(|(y, (xy_row, fraction_row))| {
-                for (x, (xy_px, fraction_px)) in
-                    xy_row.iter_mut().zip(fraction_row.iter_mut()).enumerate()
-                {
-                    let (u, v) = source(x, y);
-                    let (iu, iv) = (fixed_point(u), fixed_point(v));
-                    // The clamp in `fixed_point` keeps both integer parts in i16.
-                    *xy_px = [(iu >> INTER_BITS) as i16, (iv >> INTER_BITS) as i16];
-                    *fraction_px =
-                        (((iv & FRACTION_MASK) << INTER_BITS) | (iu & FRACTION_MASK)) as u16;
+                #[cfg(target_arch = "x86_64")]
+                if std::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU supports AVX2.
+                    unsafe { fill_row_avx2(&source, y, xy_row, fraction_row) };
+                    return;
                 }
+                fill_row(&source, y, xy_row, fraction_row);
             });
         Ok(Self {
             width,
@@ -204,12 +201,63 @@ impl RectifyMap {
     }
 }
 
+/// [`fill_row`] compiled for AVX2: four doubles per instruction instead of two. The
+/// arithmetic is the same IEEE operations (no fused multiply-add), so the map is
+/// identical.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn fill_row_avx2<F>(source: &F, y: usize, xy_row: &mut [[i16; 2]], fraction_row: &mut [u16])
+where
+    F: Fn(usize, usize) -> (f64, f64),
+{
+    fill_row(source, y, xy_row, fraction_row);
+}
+
+/// Fills one map row. Positions are computed a chunk at a time into small buffers and
+/// converted to fixed point in a second pass, so both loops are free of calls and
+/// branches and the compiler can vectorize them.
+#[inline(always)]
+fn fill_row<F>(source: &F, y: usize, xy_row: &mut [[i16; 2]], fraction_row: &mut [u16])
+where
+    F: Fn(usize, usize) -> (f64, f64),
+{
+    const CHUNK: usize = 64;
+    let mut u = [0.0f64; CHUNK];
+    let mut v = [0.0f64; CHUNK];
+    for (chunk, (xy_chunk, fraction_chunk)) in xy_row
+        .chunks_mut(CHUNK)
+        .zip(fraction_row.chunks_mut(CHUNK))
+        .enumerate()
+    {
+        let x0 = chunk * CHUNK;
+        let n = xy_chunk.len();
+        for (i, (u, v)) in u[..n].iter_mut().zip(v[..n].iter_mut()).enumerate() {
+            (*u, *v) = source(x0 + i, y);
+        }
+        for (((xy_px, fraction_px), &u), &v) in xy_chunk
+            .iter_mut()
+            .zip(fraction_chunk.iter_mut())
+            .zip(&u)
+            .zip(&v)
+        {
+            let (iu, iv) = (fixed_point(u), fixed_point(v));
+            // The clamp in `fixed_point` keeps both integer parts in i16.
+            *xy_px = [(iu >> INTER_BITS) as i16, (iv >> INTER_BITS) as i16];
+            *fraction_px = (((iv & FRACTION_MASK) << INTER_BITS) | (iu & FRACTION_MASK)) as u16;
+        }
+    }
+}
+
 /// The source pixel of output pixel `(x, y)` for the pinhole models, OpenCV's
 /// `initUndistortRectifyMap` formulas: `ir` is `(P[:, :3] * R)^-1` row-major, `d` the
 /// rational_polynomial coefficients `k1 k2 p1 p2 k3 k4 k5 k6` (plumb_bob: `k4..k6 = 0`).
 /// The ray is divided by its `z` whatever its sign, as OpenCV does.
 fn pinhole(ir: [f64; 9], k: Intrinsics, d: [f64; 8]) -> impl Fn(usize, usize) -> (f64, f64) + Sync {
     let [k1, k2, p1, p2, k3, k4, k5, k6] = d;
+    #[inline(always)]
     move |x, y| {
         let (x, y) = (x as f64, y as f64);
         let rx = ir[0] * x + ir[1] * y + ir[2];
@@ -264,16 +312,17 @@ fn fisheye(ir: [f64; 9], k: Intrinsics, d: [f64; 4]) -> impl Fn(usize, usize) ->
 
 /// `round(v * 32)`, half to even like OpenCV's `cvRound`, clamped so that the integer
 /// part fits in `i16`; NaN goes far outside any image.
+#[inline(always)]
 fn fixed_point(v: f64) -> i32 {
-    // Adding and subtracting 1.5 * 2^52 rounds to the nearest integer, ties to even, for
-    // |v| < 2^51; larger magnitudes stay far beyond the clamp with their sign, so no
-    // branch is needed.
+    // 1.5 * 2^52: adding it to a value of magnitude below 2^51 rounds to an integer (ties
+    // to even) held in the low mantissa bits, which read as two's complement.
     const ROUND: f64 = 6_755_399_441_055_744.0;
     let lo = f64::from(i32::from(i16::MIN) * INTER_TAB_SIZE);
     let hi = f64::from(i32::from(i16::MAX) * INTER_TAB_SIZE + FRACTION_MASK);
-    let rounded = (v * f64::from(INTER_TAB_SIZE) + ROUND) - ROUND;
-    // `max` maps NaN to `lo`.
-    rounded.max(lo).min(hi) as i32
+    // `max` maps NaN to `lo`. Clamping before rounding keeps the same result, since the
+    // bounds are integers, and keeps the value in the range of the rounding trick.
+    let clamped = (v * f64::from(INTER_TAB_SIZE)).max(lo).min(hi);
+    (clamped + ROUND).to_bits() as u32 as i32
 }
 
 #[cfg(test)]
