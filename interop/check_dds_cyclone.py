@@ -1,0 +1,235 @@
+"""Cyclone DDS talks to stereocal's rectify_node: an independent DDS implementation.
+
+Starts the rectify_node binary on its own ROS domain, publishes sensor_msgs/Image and
+sensor_msgs/CameraInfo on `rt/cam/image_raw` and `rt/cam/camera_info` with Cyclone
+DDS's Python binding (IDL types declared here with ROS 2's DDS type names, such as
+`sensor_msgs::msg::dds_::Image_`, and plain CDR as ROS 2 uses), receives
+`rt/cam/image_rect` the same way, and checks every frame: type, header, encoding, size,
+and pixels against OpenCV's initUndistortRectifyMap + remap (bilinear) within 1 grey
+level. Ends the node with SIGTERM and checks that it exits cleanly. Exits non-zero on
+any failure.
+
+Usage (after `cargo build --bin rectify_node`):
+    .venv/bin/python interop/check_dds_cyclone.py [--node target/debug/rectify_node]
+"""
+
+import argparse
+import os
+import signal
+import subprocess
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+from cyclonedds.core import Policy, Qos
+from cyclonedds.domain import DomainParticipant
+from cyclonedds.idl import IdlStruct
+from cyclonedds.idl.annotations import final
+from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
+from cyclonedds.pub import DataWriter
+from cyclonedds.sub import DataReader
+from cyclonedds.topic import Topic
+from cyclonedds.util import duration
+
+ROOT = Path(__file__).resolve().parent.parent
+WIDTH, HEIGHT = 320, 240
+FRAMES = 10
+TIMEOUT_S = 20.0
+
+
+@final
+@dataclass
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: int32
+    nanosec: uint32
+
+
+@final
+@dataclass
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time
+    frame_id: str
+
+
+@final
+@dataclass
+class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
+    header: Header
+    height: uint32
+    width: uint32
+    encoding: str
+    is_bigendian: uint8
+    step: uint32
+    data: sequence[uint8]
+
+
+@final
+@dataclass
+class RegionOfInterest(IdlStruct, typename="sensor_msgs::msg::dds_::RegionOfInterest_"):
+    x_offset: uint32
+    y_offset: uint32
+    height: uint32
+    width: uint32
+    do_rectify: bool
+
+
+@final
+@dataclass
+class CameraInfo(IdlStruct, typename="sensor_msgs::msg::dds_::CameraInfo_"):
+    header: Header
+    height: uint32
+    width: uint32
+    distortion_model: str
+    d: sequence[float64]
+    k: array[float64, 9]
+    r: array[float64, 9]
+    p: array[float64, 12]
+    binning_x: uint32
+    binning_y: uint32
+    roi: RegionOfInterest
+
+
+K = [260.0, 0.0, 161.5, 0.0, 262.0, 118.5, 0.0, 0.0, 1.0]
+D = [-0.25, 0.08, 0.001, -0.0005, 0.0]
+ANGLE = 0.03
+R = [np.cos(ANGLE), 0.0, np.sin(ANGLE), 0.0, 1.0, 0.0, -np.sin(ANGLE), 0.0, np.cos(ANGLE)]
+P = [240.0, 0.0, 158.0, 0.0, 0.0, 240.0, 121.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+
+
+def fail(message):
+    print(f"FAIL: {message}", file=sys.stderr)
+    sys.exit(1)
+
+
+def pixels(index, channels):
+    y, x = np.mgrid[0:HEIGHT, 0:WIDTH]
+    checker = ((x // 20 + y // 20) % 2) * 160
+    planes = [checker + (x * 3 + y * 5 + c * 40 + index * 11) % 90 for c in range(channels)]
+    return np.stack(planes, axis=-1).astype(np.uint8).reshape(HEIGHT, WIDTH, channels)
+
+
+def opencv_rectified(raw):
+    k = np.array(K).reshape(3, 3)
+    r = np.array(R).reshape(3, 3)
+    p = np.array(P).reshape(3, 4)
+    map1, map2 = cv2.initUndistortRectifyMap(k, np.array(D), r, p, (WIDTH, HEIGHT), cv2.CV_16SC2)
+    out = cv2.remap(raw, map1, map2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    return out.reshape(HEIGHT, WIDTH, -1)
+
+
+def wait_until(condition, what):
+    deadline = time.monotonic() + TIMEOUT_S
+    while not condition():
+        if time.monotonic() > deadline:
+            fail(f"timed out waiting for {what}")
+        time.sleep(0.05)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--node", default=str(ROOT / "target" / "debug" / "rectify_node"))
+    parser.add_argument("--domain", type=int, default=180 + os.getpid() % 50)
+    args = parser.parse_args()
+    if not Path(args.node).exists():
+        fail(f"{args.node} not found; build it with `cargo build --bin rectify_node`")
+
+    env = dict(os.environ, ROS_DOMAIN_ID=str(args.domain))
+    node = subprocess.Popen(
+        [args.node, "--ros-args", "-r", "__ns:=/cam", "-r", "image:=image_raw"],
+        env=env,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        check(args.domain)
+    finally:
+        if node.poll() is None:
+            node.send_signal(signal.SIGTERM)
+        try:
+            _, stderr = node.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            node.kill()
+            fail("rectify_node did not stop on SIGTERM")
+    if node.returncode != 0:
+        fail(f"rectify_node exited with {node.returncode}:\n{stderr}")
+    if f"{FRAMES} image(s) received, {FRAMES} published" not in stderr:
+        fail(f"rectify_node's summary disagrees:\n{stderr}")
+    print(f"OK: Cyclone DDS exchanged {FRAMES} frames with rectify_node; clean SIGTERM exit")
+
+
+def check(domain):
+    participant = DomainParticipant(domain)
+    writer_qos = Qos(
+        Policy.Reliability.Reliable(duration(seconds=1)),
+        Policy.History.KeepLast(10),
+        Policy.DataRepresentation(use_cdrv0_representation=True),
+    )
+    reader_qos = Qos(
+        Policy.Reliability.Reliable(duration(seconds=1)),
+        Policy.History.KeepLast(50),
+        Policy.DataRepresentation(use_cdrv0_representation=True),
+    )
+    image_writer = DataWriter(participant, Topic(participant, "rt/cam/image_raw", Image), writer_qos)
+    info_writer = DataWriter(participant, Topic(participant, "rt/cam/camera_info", CameraInfo), writer_qos)
+    rect_reader = DataReader(participant, Topic(participant, "rt/cam/image_rect", Image), reader_qos)
+
+    wait_until(lambda: len(image_writer.get_matched_subscriptions()) > 0, "rectify_node's image reader")
+    wait_until(lambda: len(info_writer.get_matched_subscriptions()) > 0, "rectify_node's camera_info reader")
+    wait_until(lambda: len(rect_reader.get_matched_publications()) > 0, "rectify_node's image_rect writer")
+
+    sent = {}
+    for i in range(1, FRAMES + 1):
+        stamp = Time(sec=200, nanosec=i * 1000)
+        header = Header(stamp=stamp, frame_id="cam_optical")
+        channels = 3 if i % 3 == 0 else 1
+        raw = pixels(i, channels)
+        info_writer.write(
+            CameraInfo(
+                header=header, height=HEIGHT, width=WIDTH, distortion_model="plumb_bob",
+                d=D, k=K, r=R, p=P, binning_x=0, binning_y=0,
+                roi=RegionOfInterest(x_offset=0, y_offset=0, height=0, width=0, do_rectify=False),
+            )
+        )
+        image_writer.write(
+            Image(
+                header=header, height=HEIGHT, width=WIDTH,
+                encoding="rgb8" if channels == 3 else "mono8", is_bigendian=0,
+                step=WIDTH * channels, data=raw.tobytes(),
+            )
+        )
+        sent[(stamp.sec, stamp.nanosec)] = raw
+        time.sleep(0.1)
+
+    received = []
+    deadline = time.monotonic() + TIMEOUT_S
+    while len(received) < FRAMES and time.monotonic() < deadline:
+        received.extend(rect_reader.take(N=FRAMES))
+        time.sleep(0.05)
+    if len(received) != FRAMES:
+        fail(f"received {len(received)} of {FRAMES} rectified frames")
+
+    worst = 0
+    for rect in received:
+        key = (rect.header.stamp.sec, rect.header.stamp.nanosec)
+        if key not in sent:
+            fail(f"image_rect with unknown stamp {key}")
+        raw = sent.pop(key)
+        channels = raw.shape[2]
+        want_encoding = "rgb8" if channels == 3 else "mono8"
+        if rect.encoding != want_encoding or rect.header.frame_id != "cam_optical":
+            fail(f"frame {key}: encoding {rect.encoding!r}, frame {rect.header.frame_id!r}")
+        if (rect.width, rect.height, rect.step) != (WIDTH, HEIGHT, WIDTH * channels):
+            fail(f"frame {key}: {rect.width}x{rect.height} step {rect.step}")
+        got = np.frombuffer(bytes(rect.data), dtype=np.uint8).reshape(HEIGHT, WIDTH, channels)
+        diff = np.abs(got.astype(int) - opencv_rectified(raw).astype(int))
+        worst = max(worst, int(diff.max()))
+    if worst > 1:
+        fail(f"rectified pixels differ from OpenCV by up to {worst} grey levels")
+    print(f"frames: {FRAMES}/{FRAMES}, max |rectify_node - OpenCV| = {worst} grey level(s)")
+
+
+if __name__ == "__main__":
+    main()
