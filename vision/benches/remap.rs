@@ -1,9 +1,10 @@
 //! Remap and map building on a 1920x1080 undistort/rectify map (plumb_bob, a small
 //! rectification rotation), mono8 and rgb8, one thread and all threads of the rayon
-//! pool. `interop/bench_remap_opencv.py` times OpenCV on the same camera side by side.
+//! pool. The camera is `cases(1920, 1080)` of `interop/check_remap_opencv.py`, which
+//! `interop/bench_remap_opencv.py` times against OpenCV side by side.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use nalgebra::{Matrix3, Matrix3x4, Rotation3};
+use nalgebra::{Matrix3, Matrix3x4, Rotation3, Vector3};
 use std::hint::black_box;
 use stereocal_vision::camera::{CameraModel, Distortion, Intrinsics};
 use stereocal_vision::image::{Image, Samples};
@@ -17,10 +18,10 @@ fn camera(distortion: Distortion) -> CameraModel {
         width: WIDTH as u32,
         height: HEIGHT as u32,
         intrinsics: Intrinsics {
-            fx: 1400.0,
-            fy: 1395.0,
-            cx: 965.3,
-            cy: 541.7,
+            fx: 1260.0,
+            fy: 1254.0,
+            cx: 967.5,
+            cy: 542.925,
         },
         distortion,
     }
@@ -28,15 +29,15 @@ fn camera(distortion: Distortion) -> CameraModel {
 
 fn plumb_bob() -> CameraModel {
     camera(Distortion::PlumbBob {
-        coeffs: [-0.28, 0.09, 0.0008, -0.0005, -0.012],
+        coeffs: [-0.29, 0.095, 0.0012, -0.0008, -0.014],
     })
 }
 
 fn rectification() -> (Matrix3<f64>, Matrix3x4<f64>) {
-    let r = *Rotation3::from_euler_angles(0.01, -0.02, 0.005).matrix();
+    let r = *Rotation3::new(Vector3::new(0.012, -0.021, 0.004)).matrix();
     let p = Matrix3x4::new(
-        1300.0, 0.0, 950.0, 0.0, //
-        0.0, 1300.0, 545.0, 0.0, //
+        1200.0, 0.0, 954.0, -120.0, //
+        0.0, 1200.0, 549.0, 0.0, //
         0.0, 0.0, 1.0, 0.0,
     );
     (r, p)
@@ -90,7 +91,7 @@ fn bench_map(c: &mut Criterion) {
         (
             "equidistant",
             camera(Distortion::Equidistant {
-                coeffs: [-0.01, 0.003, -0.001, 0.0002],
+                coeffs: [-0.013, 0.0045, -0.0021, 0.0004],
             }),
         ),
     ];

@@ -361,3 +361,21 @@ fn mismatched_images_are_rejected() {
     let mut dst = Image::zeros_u8(20, 10, 3);
     remap_into(&texture(30, 20, 3), &map, &mut dst, RemapOptions::default()).unwrap();
 }
+
+#[test]
+fn ros_interpolation_parameter() {
+    assert_eq!(
+        Interpolation::from_ros_parameter(0),
+        Some(Interpolation::Nearest)
+    );
+    assert_eq!(
+        Interpolation::from_ros_parameter(1),
+        Some(Interpolation::Bilinear)
+    );
+    assert_eq!(
+        Interpolation::from_ros_parameter(2),
+        Some(Interpolation::Bicubic)
+    );
+    assert_eq!(Interpolation::from_ros_parameter(3), None);
+    assert_eq!(Interpolation::from_ros_parameter(-1), None);
+}
