@@ -269,8 +269,6 @@ fn big_image_round_trips_with_data_in_one_block() {
         data: (0..width * height).map(|i| (i * 7 % 251) as u8).collect(),
     };
     let bytes = cdr::to_bytes(&image).expect("encodes");
-    // Header (4) + stamp (8) + frame_id (4 + 13, padded to 4) + height, width (8) +
-    // encoding (4 + 6, padded) + is_bigendian (1, padded) + step (4) + length (4).
     let data_offset = bytes.len() - image.data.len();
     assert_eq!(&bytes[data_offset..], image.data.as_slice());
     assert_eq!(
