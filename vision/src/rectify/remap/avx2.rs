@@ -6,7 +6,7 @@
 
 use std::arch::x86_64::*;
 
-use super::scalar::{self, Source};
+use super::scalar::{self, PREFETCH_AHEAD, Source, prefetch};
 use crate::rectify::map::{INTER_BITS, INTER_TAB_SIZE};
 
 /// Bilinear mono8 row: AVX2 when the CPU has it, the portable kernel otherwise.
@@ -86,26 +86,6 @@ impl Geometry {
     }
 }
 
-/// How many pixels ahead the source neighbourhood is prefetched. The source rows a map
-/// row reads curve through the image, which the hardware prefetcher does not follow;
-/// prefetching from the map itself hides most of the memory latency (measured 1.5x on
-/// 1920x1080 rgb8).
-const PREFETCH_AHEAD: usize = 128;
-
-/// Prefetches both source rows of the neighbourhood of a future map entry.
-#[inline]
-#[target_feature(enable = "avx2")]
-fn prefetch<const CN: usize>(base: *const u8, stride: usize, entry: Option<&[i16; 2]>) {
-    if let Some(&[x, y]) = entry {
-        let offset = i64::from(y) * stride as i64 + i64::from(x) * CN as i64;
-        // Prefetching never faults, so the address need not lie inside the source;
-        // wrapping arithmetic keeps forming it defined.
-        let top = base.wrapping_offset(offset as isize);
-        _mm_prefetch::<_MM_HINT_T0>(top.cast());
-        _mm_prefetch::<_MM_HINT_T0>(top.wrapping_add(stride).cast());
-    }
-}
-
 /// Byte offsets of 8 mono positions and whether all of them may take the vector path.
 #[inline]
 #[target_feature(enable = "avx2")]
@@ -165,7 +145,7 @@ unsafe fn bilinear_c1(
                 _mm_loadu_si128(fraction.as_ptr().add(x).cast()),
             )
         };
-        prefetch::<1>(base, stride, xy.get(x + PREFETCH_AHEAD));
+        prefetch::<u8, 1>(src, xy.get(x + PREFETCH_AHEAD));
         let (offsets, inside) = offsets_c1(geometry, pos);
         if !inside {
             scalar::bilinear_row::<u8, 1>(
@@ -251,7 +231,7 @@ unsafe fn bilinear_c3(
                 _mm_loadl_epi64(fraction.as_ptr().add(x).cast()),
             )
         };
-        prefetch::<3>(base, stride, xy.get(x + PREFETCH_AHEAD));
+        prefetch::<u8, 3>(src, xy.get(x + PREFETCH_AHEAD));
         let (byte_offsets, inside) = offsets_c3(geometry, pos);
         if !inside {
             scalar::bilinear_row::<u8, 3>(
