@@ -18,7 +18,8 @@ use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
 use crate::bag::{
-    BagReader, BagWriter, Durability, OfferedQos, Reliability, TopicFilter, TopicId, WriterOptions,
+    BagReader, BagWriter, ChunkCompression, Durability, OfferedQos, Reliability, TopicFilter,
+    TopicId, WriterOptions,
 };
 use crate::rectify_stage::{Rectified, Rectifier};
 
@@ -49,6 +50,9 @@ pub struct RectifyArgs {
     /// Replace the output bag if it exists.
     #[arg(long)]
     pub overwrite: bool,
+    /// Write uncompressed chunks instead of zstd: faster, larger.
+    #[arg(long)]
+    pub uncompressed: bool,
 }
 
 fn parse_camera_info_arg(value: &str) -> Result<(String, PathBuf), String> {
@@ -70,6 +74,8 @@ pub struct BagRectifyOptions {
     pub remap: RemapOptions,
     /// Replace an existing output bag.
     pub overwrite: bool,
+    /// Write uncompressed chunks instead of zstd.
+    pub uncompressed: bool,
 }
 
 /// One rectified camera of a [`BagRectifyReport`].
@@ -159,6 +165,7 @@ pub fn run(args: &RectifyArgs) -> anyhow::Result<()> {
             ..RemapOptions::default()
         },
         overwrite: args.overwrite,
+        uncompressed: args.uncompressed,
     };
     let progress = ProgressBar::new(0).with_style(
         ProgressStyle::with_template(
@@ -269,6 +276,11 @@ pub fn rectify_bag(
         output,
         WriterOptions {
             overwrite: options.overwrite,
+            compression: if options.uncompressed {
+                ChunkCompression::None
+            } else {
+                ChunkCompression::Zstd
+            },
             ..WriterOptions::default()
         },
     )
