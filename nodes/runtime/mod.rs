@@ -2,10 +2,12 @@
 //!
 //! [`args`] parses `--ros-args` (remaps, parameters, params files, log levels), [`names`]
 //! resolves node and topic names like rcl, [`params`] gives declared parameters their
-//! start-up values, [`qos`] holds the QoS profiles of DESIGN.md, [`queue`] the bounded
-//! drop-oldest queue between receiving and processing, [`logging`] writes to stderr and
-//! `/rosout`, [`shutdown`] turns SIGINT/SIGTERM into a clean stop, and [`node`] puts it
-//! together into a running ROS 2 node.
+//! start-up values (from [`params_file`]s and `-p` values typed by [`param_value`]),
+//! [`qos`] holds the QoS profiles of DESIGN.md, [`sync`] pairs images with camera_info by
+//! stamp, [`queue`] is the bounded drop-oldest queue between receiving and processing,
+//! [`sequence_gaps`] counts frames lost before reception, [`logging`] writes to stderr
+//! and `/rosout`, [`shutdown`] turns SIGINT/SIGTERM into a clean stop, and [`node`] puts
+//! it together into a running ROS 2 node on `ROS_DOMAIN_ID` with its parameter services.
 
 pub mod args;
 pub mod error;
