@@ -1,2 +1,70 @@
-//! Synthetic scenes with exact ground truth: a calibration target rendered through a
-//! camera model with blur, noise and bad frames.
+//! Synthetic scenes with exact ground truth: a chessboard target rendered through a
+//! camera model (anti-aliased, with defocus, noise, vignetting, uneven light and a
+//! cluttered background), stereo rigs and robot-arm hand-eye sessions with bad frames
+//! on request, and a saddle-point fit that measures rendered corners.
+//!
+//! Everything is seeded (ChaCha8): the same spec gives the same bytes.
+
+mod background;
+mod board;
+mod photometry;
+mod poses;
+mod rays;
+mod render;
+mod saddle;
+mod scene;
+mod truth;
+
+pub use background::Background;
+pub use board::Chessboard;
+pub use photometry::Photometry;
+pub use poses::{Coverage, PoseRanges, PoseSampler};
+pub use render::{PixelFormat, Renderer, Shot};
+pub use saddle::{SaddleFit, saddle_point};
+pub use scene::{HandEye, RigLayout, Scene, SceneKind, SceneSpec, StereoRig, synthetic_camera};
+pub use truth::{
+    CameraRecord, CornerRecord, ExtrinsicsRecord, FrameKind, FrameRecord, GroundTruth,
+    MotionRecord, StampRecord, TransformRecord, ViewRecord, corner_truth,
+};
+
+use thiserror::Error;
+
+/// Why a synthetic scene could not be made.
+#[derive(Debug, Error, PartialEq)]
+pub enum SynthError {
+    /// The board's dimensions are unusable.
+    #[error(
+        "invalid chessboard {cols}x{rows} inner corners, square {square_size} m, margin {margin} m: \
+         expected at least 2x2 corners, a positive square size and a non-negative margin"
+    )]
+    InvalidBoard {
+        /// Inner corners along x.
+        cols: usize,
+        /// Inner corners along y.
+        rows: usize,
+        /// Square size, metres.
+        square_size: f64,
+        /// Margin, metres.
+        margin: f64,
+    },
+    /// The image size is too small to hold a board.
+    #[error("image size {width}x{height} is too small: expected at least 64x64")]
+    ImageTooSmall {
+        /// Width, pixels.
+        width: u32,
+        /// Height, pixels.
+        height: u32,
+    },
+    /// The share of bad frames is not a fraction.
+    #[error("bad-frame fraction {0} is not within [0, 1]")]
+    BadFraction(f64),
+    /// A pose sampler was given no camera.
+    #[error("a pose sampler needs at least one camera")]
+    NoCamera,
+    /// No pose satisfied the view's constraints.
+    #[error("could not place the target in view for frame {index}")]
+    NoPose {
+        /// The frame.
+        index: usize,
+    },
+}
