@@ -5,5 +5,8 @@
 pub mod bag;
 pub mod cli;
 pub mod convert;
+pub mod rectify_node;
 pub mod rectify_stage;
+pub mod replay;
+pub mod row_alignment;
 pub mod runtime;

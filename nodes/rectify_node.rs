@@ -1,4 +1,5 @@
-//! `rectify_node`: rectifies a camera's images like image_proc's RectifyNode.
+//! The rectify node: rectifies a camera's images like image_proc's RectifyNode. Runs as
+//! the `rectify_node` executable and as `stereocal node rectify`.
 //!
 //! Subscribes `image` (sensor_msgs/Image) and `camera_info` (sensor_msgs/CameraInfo),
 //! pairs them by stamp, and publishes `image_rect` in the input's encoding. Parameters:
@@ -6,21 +7,20 @@
 //! `queue_size` (frames kept on each topic and between receiving and rectifying; older
 //! frames are dropped and counted when rectifying falls behind).
 
-use std::process::ExitCode;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
+use crate::rectify_stage::{Rectified, Rectifier};
+use crate::runtime::node::NodeBuilder;
+use crate::runtime::params::ParamSpec;
+use crate::runtime::qos;
+use crate::runtime::queue::DropOldestQueue;
+use crate::runtime::sequence_gaps::SequenceGaps;
+use crate::runtime::sync::StampPairing;
 use anyhow::Context;
 use futures::{FutureExt, StreamExt};
 use ros2_client::{ParameterValue, Publisher};
-use stereocal::rectify_stage::{Rectified, Rectifier};
-use stereocal::runtime::node::NodeBuilder;
-use stereocal::runtime::params::ParamSpec;
-use stereocal::runtime::qos;
-use stereocal::runtime::queue::DropOldestQueue;
-use stereocal::runtime::sequence_gaps::SequenceGaps;
-use stereocal::runtime::sync::StampPairing;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
@@ -91,17 +91,13 @@ fn rectify_loop(
     }
 }
 
-fn main() -> ExitCode {
-    match run() {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("rectify_node: {e:#}");
-            ExitCode::FAILURE
-        }
-    }
-}
-
-fn run() -> anyhow::Result<()> {
+/// Runs the rectify node until SIGINT/SIGTERM, with `args` the command line without the
+/// program name (`--ros-args` remaps, parameters, params files).
+pub fn run<I, S>(args: I) -> anyhow::Result<()>
+where
+    I: IntoIterator<Item = S>,
+    S: Into<String>,
+{
     let mut node = NodeBuilder::new("rectify_node")
         .param(
             ParamSpec::new(
@@ -119,7 +115,7 @@ fn run() -> anyhow::Result<()> {
             )
             .integer_range(1..=1000),
         )
-        .start_from_env()?;
+        .start(args)?;
     let queue_size = usize::try_from(node.param_i64("queue_size")?).context("queue_size")?;
 
     let image_sub = node.subscribe::<Image>("image", qos::sensor_data(queue_size))?;
