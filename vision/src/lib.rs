@@ -3,6 +3,7 @@
 //! Conventions: pixel centres at integer coordinates (OpenCV and ROS); metres,
 //! radians and seconds; transforms named `a_from_b` map points in frame b to frame a.
 
+pub mod board;
 pub mod camera;
 pub mod image;
 pub mod rectify;

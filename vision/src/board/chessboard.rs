@@ -1,0 +1,203 @@
+//! Chessboard detection: ChESS corners and grid labelling from `calib-targets`
+//! (saddle-point refiner, multiscale pyramid, the three-configuration sweep), then
+//! our own board fitting, ordering and sub-pixel refinement.
+//!
+//! The grid detector has no board-size parameter and returns grids of any size: a
+//! grid is accepted only when it is exactly the board (after trimming outer lines
+//! that are not chessboard corners), which also rejects partial boards and wrong
+//! board sizes. Of several grids (a second board in view) the largest in the image
+//! that fits is taken. Large squares weaken the detector, so when the full image
+//! gives nothing it runs again on half-resolution copies, and the corners found are
+//! refined at full resolution. Corner positions from `chess-corners` already have
+//! pixel centres at integer coordinates (its pyramid and upscaling map
+//! `x_src = (x_out + 0.5) / k - 0.5`), the convention of this crate.
+
+use calib_targets_chessboard::{
+    ChessboardDetector as GridDetector, ChessboardParams, DetectorConfig, GrayImageView,
+    detect_corners,
+};
+use chess_corners::ImageRefiner;
+use nalgebra::Point2;
+
+use super::detection::{Detection, TargetDetector};
+use super::grid::{GridCorner, board_corners};
+use super::subpixel::{SubpixelWindow, refine_corners};
+use super::target::{Chessboard, Target};
+use super::{BoardError, Gray};
+
+/// Half-resolution retries stop below this image side, pixels.
+const MIN_LEVEL_SIDE: usize = 96;
+
+/// Finds a [`Chessboard`] in images.
+#[derive(Clone, Debug)]
+pub struct ChessboardDetector {
+    board: Chessboard,
+    target: Target,
+    corner_config: DetectorConfig,
+    grid_params: Vec<ChessboardParams>,
+    window: SubpixelWindow,
+}
+
+impl ChessboardDetector {
+    /// A detector of `board` with the default configuration.
+    pub fn new(board: Chessboard) -> Result<Self, BoardError> {
+        board.validate()?;
+        let corner_config =
+            DetectorConfig::chess_multiscale().with_refiner(ImageRefiner::saddle_point());
+        let grid_params = ChessboardParams::sweep_default()
+            .into_iter()
+            .map(|mut params| {
+                // Small boards have fewer corners than the detector's default minimum.
+                params.min_labeled_corners = params.min_labeled_corners.min(board.corner_count());
+                GridDetector::new(params.clone())
+                    .map(|_| params)
+                    .map_err(|e| BoardError::InvalidTarget(e.to_string()))
+            })
+            .collect::<Result<_, _>>()?;
+        Ok(Self {
+            board,
+            target: Target::Chessboard(board),
+            corner_config,
+            grid_params,
+            window: SubpixelWindow::default(),
+        })
+    }
+
+    /// Replaces the sub-pixel refinement settings.
+    pub fn with_subpixel_window(mut self, window: SubpixelWindow) -> Self {
+        self.window = window;
+        self
+    }
+
+    /// The board.
+    pub fn board(&self) -> &Chessboard {
+        &self.board
+    }
+
+    /// The board's corners in target order at the resolution of `gray`, before
+    /// sub-pixel refinement.
+    fn find_board(&self, gray: &Gray) -> Option<(Vec<Point2<f64>>, Vec<bool>)> {
+        let view = GrayImageView {
+            width: gray.width,
+            height: gray.height,
+            data: &gray.data,
+        };
+        let corners = detect_corners(&view, &self.corner_config);
+        let mut best: Option<(f64, Vec<Point2<f64>>, Vec<bool>)> = None;
+        for params in &self.grid_params {
+            let Ok(detector) = GridDetector::new(params.clone()) else {
+                continue;
+            };
+            for component in detector.detect_all(&corners) {
+                let labelled: Vec<GridCorner> = component
+                    .corners
+                    .iter()
+                    .map(|c| GridCorner {
+                        u: c.grid.u,
+                        v: c.grid.v,
+                        position: Point2::new(c.position.x as f64, c.position.y as f64),
+                    })
+                    .collect();
+                let Some(ordered) =
+                    board_corners(&labelled, gray, self.board.cols, self.board.rows)
+                else {
+                    continue;
+                };
+                let area = quad_area(&ordered, self.board.cols, self.board.rows);
+                if best.as_ref().is_none_or(|(a, _, _)| area > *a) {
+                    // Corners not among the grid's own were predicted from neighbours.
+                    let predicted = ordered
+                        .iter()
+                        .map(|p| !labelled.iter().any(|c| c.position == *p))
+                        .collect();
+                    best = Some((area, ordered, predicted));
+                }
+            }
+            if best.is_some() {
+                break;
+            }
+        }
+        best.map(|(_, ordered, predicted)| (ordered, predicted))
+    }
+
+    /// Shortest side of the squares around each corner, pixels.
+    fn local_squares(&self, corners: &[Point2<f64>]) -> Vec<f64> {
+        let (cols, rows) = (self.board.cols, self.board.rows);
+        (0..rows)
+            .flat_map(|j| (0..cols).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                let here = corners[j * cols + i];
+                let mut neighbours = Vec::with_capacity(4);
+                if i > 0 {
+                    neighbours.push(corners[j * cols + i - 1]);
+                }
+                if i + 1 < cols {
+                    neighbours.push(corners[j * cols + i + 1]);
+                }
+                if j > 0 {
+                    neighbours.push(corners[(j - 1) * cols + i]);
+                }
+                if j + 1 < rows {
+                    neighbours.push(corners[(j + 1) * cols + i]);
+                }
+                neighbours
+                    .iter()
+                    .map(|n| (n - here).norm())
+                    .fold(f64::INFINITY, f64::min)
+            })
+            .collect()
+    }
+}
+
+impl TargetDetector for ChessboardDetector {
+    fn target(&self) -> &Target {
+        &self.target
+    }
+
+    fn detect_gray(&self, gray: &Gray) -> Option<Detection> {
+        let mut found = self.find_board(gray);
+        let mut level = gray.half();
+        let mut scale = 2.0;
+        while found.is_none() && level.width.min(level.height) >= MIN_LEVEL_SIDE {
+            found = self.find_board(&level).map(|(corners, predicted)| {
+                let corners = corners
+                    .into_iter()
+                    .map(|p| Point2::new((p.x + 0.5) * scale - 0.5, (p.y + 0.5) * scale - 0.5))
+                    .collect();
+                (corners, predicted)
+            });
+            level = level.half();
+            scale *= 2.0;
+        }
+        let (mut corners, predicted) = found?;
+        let squares = self.local_squares(&corners);
+        let refined = refine_corners(gray, &mut corners, &squares, &self.window);
+        // A corner the grid lacked and we predicted must prove itself a saddle.
+        if predicted.iter().zip(&refined).any(|(&p, &r)| p && !r) {
+            return None;
+        }
+        let mut sorted = squares.clone();
+        sorted.sort_by(f64::total_cmp);
+        Some(Detection {
+            ids: (0..corners.len()).collect(),
+            corners,
+            square_px: sorted[sorted.len() / 2],
+        })
+    }
+}
+
+/// Image area of the quadrilateral spanned by the board's outer corners.
+fn quad_area(ordered: &[Point2<f64>], cols: usize, rows: usize) -> f64 {
+    let quad = [
+        ordered[0],
+        ordered[cols - 1],
+        ordered[cols * rows - 1],
+        ordered[(rows - 1) * cols],
+    ];
+    let mut twice = 0.0;
+    for k in 0..4 {
+        let (p, q) = (quad[k], quad[(k + 1) % 4]);
+        twice += p.x * q.y - q.x * p.y;
+    }
+    twice.abs() / 2.0
+}
