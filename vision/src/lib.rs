@@ -4,6 +4,7 @@
 //! radians and seconds; transforms named `a_from_b` map points in frame b to frame a.
 
 pub mod board;
+pub mod calib;
 pub mod camera;
 pub mod image;
 pub mod rectify;
