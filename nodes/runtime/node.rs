@@ -5,7 +5,6 @@
 
 use std::thread::JoinHandle;
 
-use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, Publisher,
     QosProfile, Subscription,
@@ -20,17 +19,34 @@ use super::logging::{self, LogConfig};
 use super::names::NodeIdentity;
 use super::params::{ParamSpec, startup_params, type_name};
 use super::shutdown::Shutdown;
+use super::transport::{TransportConfig, TransportError};
 
 /// Highest domain id whose DDS ports fit in the UDP port range (as rmw checks).
 const MAX_DOMAIN_ID: u16 = 232;
 
-/// DDS participant settings our side controls.
+/// DDS participant settings a node fixes in code, over what its environment asks
+/// for ([`TransportConfig::from_env`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct DdsOptions {
-    /// Requested `SO_RCVBUF` of every UDP socket, bytes; `None` keeps RustDDS's default.
+    /// Requested `SO_RCVBUF` of every UDP socket, bytes; `None` keeps the environment's.
     pub socket_receive_buffer: Option<usize>,
-    /// Requested `SO_SNDBUF` of every UDP socket, bytes; `None` keeps RustDDS's default.
+    /// Requested `SO_SNDBUF` of every UDP socket, bytes; `None` keeps the environment's.
     pub socket_send_buffer: Option<usize>,
+}
+
+impl DdsOptions {
+    /// `transport` with these options applied over it.
+    pub fn apply(&self, transport: TransportConfig) -> TransportConfig {
+        TransportConfig {
+            socket_receive_buffer: self
+                .socket_receive_buffer
+                .unwrap_or(transport.socket_receive_buffer),
+            socket_send_buffer: self
+                .socket_send_buffer
+                .unwrap_or(transport.socket_send_buffer),
+            ..transport
+        }
+    }
 }
 
 /// Describes a node before it starts: default name and namespace, parameters.
@@ -111,8 +127,10 @@ impl NodeBuilder {
     }
 
     /// Starts the node from `args` (the command line without the program name): parses
-    /// the ROS arguments, sets up logging, joins the DDS domain of `ROS_DOMAIN_ID`,
-    /// creates the node with its parameters and starts its spinner.
+    /// the ROS arguments, sets up logging, joins the DDS domain of `ROS_DOMAIN_ID` with
+    /// the transport settings of the environment ([`TransportConfig::from_env`]: the
+    /// ROS 2 discovery range, socket buffer requests), creates the node with its
+    /// parameters and starts its spinner.
     pub fn start<I, S>(self, args: I) -> Result<RosNode>
     where
         I: IntoIterator<Item = S>,
@@ -138,18 +156,25 @@ impl NodeBuilder {
         let shutdown = Shutdown::install()?;
         let domain_id = domain_id_from_env()?;
 
-        let mut participant = DomainParticipantBuilder::new(domain_id);
-        if let Some(size) = self.dds.socket_receive_buffer {
-            participant = participant.socket_receive_buffer_size(size);
+        let transport = self
+            .dds
+            .apply(TransportConfig::from_env().map_err(|e| match e {
+                TransportError::Setting {
+                    variable,
+                    value,
+                    expected,
+                } => RuntimeError::Argument {
+                    argument: format!("{variable}={value}"),
+                    reason: format!("expected {expected}"),
+                },
+                other => RuntimeError::Middleware(other.to_string()),
+            })?);
+        for warning in transport.host_warnings() {
+            log::warn!("{warning}");
         }
-        if let Some(size) = self.dds.socket_send_buffer {
-            participant = participant.socket_send_buffer_size(size);
-        }
-        let participant = participant
-            .build()
-            .map_err(|e| middleware(&format!("DDS participant on domain {domain_id}"), e))?;
-        let context = Context::from_domain_participant(participant)
-            .map_err(|e| middleware("ROS context", e))?;
+        let context = transport
+            .context(domain_id)
+            .map_err(|e| RuntimeError::Middleware(e.to_string()))?;
 
         let specs = self.specs.clone();
         let mut options = NodeOptions::new()
@@ -180,7 +205,7 @@ impl NodeBuilder {
             .map_err(|e| middleware("spinner thread", e))?;
         logging::attach_rosout(node.logging_handle());
         log::info!(
-            "started {} on ROS domain {domain_id}",
+            "started {} on ROS domain {domain_id} ({transport})",
             identity.fully_qualified_name()
         );
         Ok(RosNode {
@@ -375,5 +400,27 @@ mod tests {
         let name = message_type_name::<stereocal_msgs::sensor_msgs::Image>()?;
         assert_eq!(name.dds_msg_type(), "sensor_msgs::msg::dds_::Image_");
         Ok(())
+    }
+
+    #[test]
+    fn dds_options_override_the_environment() {
+        use super::super::transport::DiscoveryRange;
+        let from_env = TransportConfig {
+            socket_receive_buffer: 1 << 20,
+            socket_send_buffer: 2 << 20,
+            range: DiscoveryRange::Localhost,
+        };
+        assert_eq!(DdsOptions::default().apply(from_env.clone()), from_env);
+        let options = DdsOptions {
+            socket_receive_buffer: Some(0),
+            socket_send_buffer: None,
+        };
+        assert_eq!(
+            options.apply(from_env.clone()),
+            TransportConfig {
+                socket_receive_buffer: 0,
+                ..from_env
+            }
+        );
     }
 }

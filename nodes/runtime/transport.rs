@@ -12,7 +12,10 @@
 //! frame goes out in ~95 datagrams.
 //!
 //! What the node runtime can set from our side is gathered in
-//! [`TransportConfig`].
+//! [`TransportConfig`]. Every node reads it from its environment at start-up
+//! ([`TransportConfig::from_env`]): the discovery range from the ROS 2
+//! variables, and the socket buffer requests from [`RECEIVE_BUFFER_ENV`] and
+//! [`SEND_BUFFER_ENV`].
 
 use std::net::Ipv4Addr;
 
@@ -26,9 +29,29 @@ use ros2_client::{
 pub const RUSTDDS_DEFAULT_SOCKET_BUFFER: usize =
     DomainParticipantBuilder::DEFAULT_SOCKET_RECEIVE_BUFFER_SIZE;
 
-/// Why a DDS participant could not be created.
+/// Environment variable with the `SO_RCVBUF` request of a node's DDS
+/// sockets: bytes, or with a `KiB`/`MiB` suffix (`16MiB`); 0 keeps the OS
+/// default.
+pub const RECEIVE_BUFFER_ENV: &str = "STEREOCAL_DDS_RECEIVE_BUFFER";
+
+/// Environment variable with the `SO_SNDBUF` request of a node's DDS sockets,
+/// written like [`RECEIVE_BUFFER_ENV`].
+pub const SEND_BUFFER_ENV: &str = "STEREOCAL_DDS_SEND_BUFFER";
+
+/// Why the transport settings are unusable or a DDS participant could not be
+/// created.
 #[derive(Debug, thiserror::Error)]
 pub enum TransportError {
+    /// An environment variable holds a value that is not a setting.
+    #[error("{variable}={value:?}: expected {expected}")]
+    Setting {
+        /// The variable.
+        variable: &'static str,
+        /// Its value.
+        value: String,
+        /// What it should hold.
+        expected: &'static str,
+    },
     /// RustDDS refused to create the participant (ports taken, no network).
     #[error("cannot create DDS participant on domain {domain_id}: {reason}")]
     Participant {
@@ -82,6 +105,34 @@ impl DiscoveryRange {
     }
 }
 
+/// A socket buffer size as written in [`RECEIVE_BUFFER_ENV`]: a byte count,
+/// optionally followed by `KiB` or `MiB` (`K` and `M` mean the same).
+pub fn parse_buffer_size(text: &str) -> Option<usize> {
+    let text = text.trim();
+    let digits = text
+        .find(|c: char| !c.is_ascii_digit())
+        .unwrap_or(text.len());
+    let (number, unit) = text.split_at(digits);
+    let scale = match unit.trim() {
+        "" => 1,
+        "K" | "k" | "KiB" => 1 << 10,
+        "M" | "MiB" => 1 << 20,
+        _ => return None,
+    };
+    number.parse::<usize>().ok()?.checked_mul(scale)
+}
+
+/// The warning a node logs when Linux will clamp its buffer request: `requested`
+/// bytes asked for, `limit` the value of the `sysctl` named `sysctl` (bytes).
+pub fn clamp_warning(requested: usize, limit: usize, sysctl: &str) -> Option<String> {
+    (requested > limit).then(|| {
+        format!(
+            "{sysctl} is {limit} B, below the {requested} B DDS socket buffer requested: \
+             multi-megabyte images may be lost; raise it (sysctl -w {sysctl}={requested})"
+        )
+    })
+}
+
 /// Settings of the DDS participant behind a node's ROS 2 context.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct TransportConfig {
@@ -106,15 +157,55 @@ impl TransportConfig {
         }
     }
 
-    /// The configuration nodes use: RustDDS's buffer requests, and the
-    /// discovery range from the ROS 2 environment variables, so that
-    /// `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST` (or `ROS_LOCALHOST_ONLY=1`)
-    /// selects the loopback-only transport that carries large images best.
-    pub fn from_env() -> Self {
-        Self {
-            range: DiscoveryRange::from_env(),
-            ..Self::rustdds_defaults()
-        }
+    /// The configuration nodes use: the discovery range from the ROS 2
+    /// environment variables, so that `ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST`
+    /// (or `ROS_LOCALHOST_ONLY=1`) selects the loopback-only transport that
+    /// carries large images best, and the socket buffer requests from
+    /// [`RECEIVE_BUFFER_ENV`] and [`SEND_BUFFER_ENV`] (RustDDS's when unset).
+    pub fn from_env() -> Result<Self, TransportError> {
+        Self::from_lookup(|name| std::env::var(name).ok())
+    }
+
+    /// [`Self::from_env`] with the environment given by `lookup` (a
+    /// variable's value, `None` when unset).
+    pub fn from_lookup(lookup: impl Fn(&str) -> Option<String>) -> Result<Self, TransportError> {
+        let range = DiscoveryRange::from_env_values(
+            lookup("ROS_AUTOMATIC_DISCOVERY_RANGE").as_deref(),
+            lookup("ROS_LOCALHOST_ONLY").as_deref(),
+        );
+        let buffer = |variable: &'static str| match lookup(variable) {
+            None => Ok(RUSTDDS_DEFAULT_SOCKET_BUFFER),
+            Some(value) if value.trim().is_empty() => Ok(RUSTDDS_DEFAULT_SOCKET_BUFFER),
+            Some(value) => parse_buffer_size(&value).ok_or(TransportError::Setting {
+                variable,
+                value,
+                expected: "a size in bytes, optionally with a KiB or MiB suffix",
+            }),
+        };
+        Ok(Self {
+            socket_receive_buffer: buffer(RECEIVE_BUFFER_ENV)?,
+            socket_send_buffer: buffer(SEND_BUFFER_ENV)?,
+            range,
+        })
+    }
+
+    /// Warnings about buffer requests this host's `net.core.rmem_max` and
+    /// `net.core.wmem_max` will clamp (none where `/proc` does not tell).
+    pub fn host_warnings(&self) -> Vec<String> {
+        let limit = |name: &str| {
+            std::fs::read_to_string(format!("/proc/sys/net/core/{name}"))
+                .ok()
+                .and_then(|text| text.trim().parse::<usize>().ok())
+        };
+        [
+            ("rmem_max", self.socket_receive_buffer),
+            ("wmem_max", self.socket_send_buffer),
+        ]
+        .into_iter()
+        .filter_map(|(name, requested)| {
+            clamp_warning(requested, limit(name)?, &format!("net.core.{name}"))
+        })
+        .collect()
     }
 
     /// A RustDDS participant builder with these settings.
@@ -149,6 +240,20 @@ impl TransportConfig {
     }
 }
 
+impl std::fmt::Display for TransportConfig {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let range = match self.range {
+            DiscoveryRange::Subnet => "all interfaces",
+            DiscoveryRange::Localhost => "localhost only",
+        };
+        write!(
+            f,
+            "{range}, SO_RCVBUF {} B, SO_SNDBUF {} B requested",
+            self.socket_receive_buffer, self.socket_send_buffer
+        )
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -171,5 +276,84 @@ mod tests {
             DiscoveryRange::from_env_values(Some(""), Some("1")),
             Localhost
         );
+    }
+
+    #[test]
+    fn buffer_sizes_parse_with_binary_units() {
+        assert_eq!(parse_buffer_size("212992"), Some(212_992));
+        assert_eq!(parse_buffer_size(" 0 "), Some(0));
+        assert_eq!(parse_buffer_size("512KiB"), Some(512 * 1024));
+        assert_eq!(parse_buffer_size("16M"), Some(16 * 1024 * 1024));
+        assert_eq!(parse_buffer_size("16 MiB"), Some(16 * 1024 * 1024));
+        assert_eq!(parse_buffer_size("8k"), Some(8192));
+        for bad in [
+            "",
+            "MiB",
+            "-1",
+            "1.5M",
+            "16GB",
+            "16 mb",
+            "99999999999999999999M",
+        ] {
+            assert_eq!(parse_buffer_size(bad), None, "{bad:?}");
+        }
+    }
+
+    fn env<'a>(vars: &'a [(&'a str, &'a str)]) -> impl Fn(&str) -> Option<String> + 'a {
+        |name| {
+            vars.iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, v)| v.to_string())
+        }
+    }
+
+    #[test]
+    fn transport_config_reads_range_and_buffers_from_environment() {
+        assert_eq!(
+            TransportConfig::from_lookup(env(&[])).unwrap(),
+            TransportConfig::rustdds_defaults()
+        );
+        let tuned = TransportConfig::from_lookup(env(&[
+            ("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST"),
+            (RECEIVE_BUFFER_ENV, "16MiB"),
+            (SEND_BUFFER_ENV, "0"),
+        ]))
+        .unwrap();
+        assert_eq!(
+            tuned,
+            TransportConfig {
+                socket_receive_buffer: 16 << 20,
+                socket_send_buffer: 0,
+                range: DiscoveryRange::Localhost,
+            }
+        );
+        let blank = TransportConfig::from_lookup(env(&[
+            ("ROS_LOCALHOST_ONLY", "1"),
+            (RECEIVE_BUFFER_ENV, " "),
+        ]))
+        .unwrap();
+        assert_eq!(blank.socket_receive_buffer, RUSTDDS_DEFAULT_SOCKET_BUFFER);
+        assert_eq!(blank.range, DiscoveryRange::Localhost);
+        let error = TransportConfig::from_lookup(env(&[(SEND_BUFFER_ENV, "lots")])).unwrap_err();
+        assert!(matches!(
+            error,
+            TransportError::Setting {
+                variable: SEND_BUFFER_ENV,
+                ..
+            }
+        ));
+        assert!(
+            error
+                .to_string()
+                .contains("STEREOCAL_DDS_SEND_BUFFER=\"lots\"")
+        );
+    }
+
+    #[test]
+    fn clamped_buffer_requests_are_reported() {
+        assert_eq!(clamp_warning(8 << 20, 8 << 20, "net.core.rmem_max"), None);
+        let warning = clamp_warning(8 << 20, 212_992, "net.core.rmem_max").unwrap();
+        assert!(warning.contains("net.core.rmem_max is 212992 B"));
+        assert!(warning.contains("sysctl -w net.core.rmem_max=8388608"));
     }
 }
