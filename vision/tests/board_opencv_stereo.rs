@@ -101,3 +101,40 @@ fn stereo_pairs_get_the_same_order() {
         assert!(dl.dot(&dr) > 0.5 * dl.norm() * dr.norm(), "{name}");
     }
 }
+
+#[test]
+fn corners_agree_with_opencv() {
+    let Some(dir) = data_dir() else { return };
+    let fixture: serde_json::Value =
+        serde_json::from_str(include_str!("fixtures/opencv_stereo_corners.json"))
+            .expect("fixture is JSON");
+    let mut means = Vec::new();
+    for (name, detection) in detect_all(&dir) {
+        let theirs = fixture["images"][&name]["corners"]
+            .as_array()
+            .unwrap_or_else(|| panic!("{name} missing from the fixture"));
+        assert_eq!(theirs.len(), 54, "{name}");
+        let distances: Vec<f64> = theirs
+            .iter()
+            .zip(&detection.corners)
+            .map(|(p, ours)| {
+                let p = Point2::new(p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+                (p - ours).norm()
+            })
+            .collect();
+        let mean = distances.iter().sum::<f64>() / distances.len() as f64;
+        let max = distances.iter().cloned().fold(0.0, f64::max);
+        println!("{name}: mean {mean:.3} px, max {max:.3} px from OpenCV");
+        // Same order as OpenCV: a different order would put corners squares apart.
+        // (OpenCV's 11x11 window pulls some outer corners of these small squares by
+        // a few pixels, so single corners may differ that much.)
+        assert!(
+            max < 0.25 * detection.square_px,
+            "{name}: max distance {max} px"
+        );
+        means.push(mean);
+    }
+    let overall = means.iter().sum::<f64>() / means.len() as f64;
+    println!("all images: mean distance {overall:.4} px from OpenCV");
+    assert!(overall < 0.2, "mean distance {overall} px");
+}
