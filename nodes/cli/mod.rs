@@ -2,3 +2,4 @@
 //! its clap `Args` and a `run` function.
 
 pub mod rectify;
+pub mod synth;

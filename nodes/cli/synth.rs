@@ -1,0 +1,448 @@
+//! `stereocal synth`: renders a synthetic scene into a rosbag2 bag, with its ground
+//! truth beside it (and, for stereo rigs, the true camera_info files).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use nalgebra::{Isometry3, Matrix3, Matrix3x4};
+use stereocal_msgs::builtin_interfaces::Time;
+use stereocal_msgs::camera_info_file::CameraInfoFile;
+use stereocal_msgs::geometry_msgs::{
+    Point, Pose, PoseStamped, Quaternion, Transform, TransformStamped, Vector3,
+};
+use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
+use stereocal_msgs::std_msgs::Header;
+use stereocal_msgs::tf2_msgs::TFMessage;
+use stereocal_vision::camera::DistortionModel;
+use stereocal_vision::rectify::{
+    StereoRectification, StereoRectifyOptions, fisheye_stereo_rectify, stereo_rectify,
+};
+use stereocal_vision::synth::{
+    GroundTruth, PixelFormat, RigLayout, Scene, SceneKind, SceneSpec, StampRecord,
+};
+
+use crate::bag::{BagWriter, OfferedQos, WriterOptions};
+use crate::convert::{
+    CalibratedCamera, Encoding, info_from_calibrated, info_from_raw_camera, msg_from_image,
+};
+
+/// Frame of the robot's base in hand-eye bags.
+const BASE_FRAME: &str = "base";
+/// Frame of the robot's tool in hand-eye bags.
+const TOOL_FRAME: &str = "tool";
+
+/// Which scene to synthesize.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneArg {
+    /// A stereo rig looking at a chessboard in poses covering the view.
+    Stereo,
+    /// A stereo calibration session, about one frame in ten bad.
+    Calibration,
+    /// Eye-in-hand: camera on the robot's tool, board fixed.
+    HandeyeInHand,
+    /// Eye-to-hand: camera fixed, board on the robot's tool.
+    HandeyeToHand,
+}
+
+/// Lens model of the synthetic cameras.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModelArg {
+    /// Brown-Conrady radial-tangential.
+    #[value(name = "plumb_bob")]
+    PlumbBob,
+    /// Rational radial with tangential terms.
+    #[value(name = "rational_polynomial")]
+    RationalPolynomial,
+    /// Fisheye equidistant.
+    #[value(name = "equidistant")]
+    Equidistant,
+}
+
+/// Arguments of `stereocal synth`.
+#[derive(clap::Args, Debug)]
+pub struct SynthArgs {
+    /// Kind of scene.
+    #[arg(long, value_enum)]
+    pub scene: SceneArg,
+    /// Output directory: receives `bag/` and `ground_truth.json` (and `left.yaml`,
+    /// `right.yaml` for stereo rigs).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Seed of every random choice: the same seed gives the same bytes.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Number of frames (default: 20 stereo, 25 calibration, 15 hand-eye).
+    #[arg(long)]
+    pub frames: Option<usize>,
+    /// Image width, pixels.
+    #[arg(long, default_value_t = 1024)]
+    pub width: u32,
+    /// Image height, pixels.
+    #[arg(long, default_value_t = 768)]
+    pub height: u32,
+    /// Lens distortion model.
+    #[arg(long, value_enum, default_value = "plumb_bob")]
+    pub model: ModelArg,
+    /// Fraction of bad frames (blurred, motion-blurred, partly out of view); default
+    /// 0.1 for calibration, 0 otherwise.
+    #[arg(long)]
+    pub bad_frames: Option<f64>,
+    /// Render rgb8 instead of mono8.
+    #[arg(long)]
+    pub rgb: bool,
+    /// Stereo rigs: put the second camera below the first instead of beside it.
+    #[arg(long)]
+    pub vertical: bool,
+}
+
+impl SynthArgs {
+    /// The scene these arguments describe.
+    pub fn spec(&self) -> SceneSpec {
+        let kind = match self.scene {
+            SceneArg::Stereo => SceneKind::Stereo,
+            SceneArg::Calibration => SceneKind::Calibration,
+            SceneArg::HandeyeInHand => SceneKind::HandEyeInHand,
+            SceneArg::HandeyeToHand => SceneKind::HandEyeToHand,
+        };
+        let defaults = SceneSpec::new(kind, self.seed);
+        SceneSpec {
+            frames: self.frames.unwrap_or(defaults.frames),
+            width: self.width,
+            height: self.height,
+            model: match self.model {
+                ModelArg::PlumbBob => DistortionModel::PlumbBob,
+                ModelArg::RationalPolynomial => DistortionModel::RationalPolynomial,
+                ModelArg::Equidistant => DistortionModel::Equidistant,
+            },
+            bad_fraction: self.bad_frames.unwrap_or(defaults.bad_fraction),
+            format: if self.rgb {
+                PixelFormat::Rgb8
+            } else {
+                PixelFormat::Mono8
+            },
+            layout: if self.vertical {
+                RigLayout::Vertical
+            } else {
+                RigLayout::Horizontal
+            },
+            ..defaults
+        }
+    }
+}
+
+/// Renders the scene into `<out>/bag` and writes `<out>/ground_truth.json`; stereo rigs
+/// also get `<out>/left.yaml` and `<out>/right.yaml` with their true rectification.
+pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
+    if args.frames == Some(0) {
+        bail!("--frames must be at least 1");
+    }
+    let spec = args.spec();
+    let scene = Scene::generate(&spec).context("cannot make the scene")?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    write_bag(&scene, &args.out.join("bag"))?;
+    write_json_atomically(&args.out.join("ground_truth.json"), scene.truth())?;
+    if !spec.kind.is_hand_eye() {
+        write_rectified_camera_infos(&scene, &args.out)?;
+    }
+    eprintln!(
+        "wrote {} frames of scene {} to {}",
+        scene.truth().frames.len(),
+        spec.kind.name(),
+        args.out.display()
+    );
+    Ok(())
+}
+
+/// Image and camera_info topics of a camera in the scene.
+fn camera_topics(kind: SceneKind, camera: &str) -> (String, String) {
+    let ns = if kind.is_hand_eye() {
+        "/camera".to_owned()
+    } else {
+        format!("/stereo/{camera}")
+    };
+    (format!("{ns}/image_raw"), format!("{ns}/camera_info"))
+}
+
+fn write_bag(scene: &Scene, path: &Path) -> anyhow::Result<()> {
+    let truth = scene.truth();
+    let kind = scene.spec().kind;
+    let options = WriterOptions {
+        overwrite: true,
+        ..WriterOptions::default()
+    };
+    let mut bag = BagWriter::create_with(path, options)
+        .with_context(|| format!("cannot create the bag {}", path.display()))?;
+    let qos = OfferedQos::default();
+    let mut topics = Vec::new();
+    for camera in &truth.cameras {
+        let (image_topic, info_topic) = camera_topics(kind, &camera.name);
+        let image = bag.add_message_topic::<ImageMsg>(&image_topic, &qos)?;
+        let info = bag.add_message_topic::<CameraInfo>(&info_topic, &qos)?;
+        topics.push((image, info));
+    }
+    let robot = if kind.is_hand_eye() {
+        Some((
+            bag.add_message_topic::<PoseStamped>("/robot/tool_pose", &qos)?,
+            bag.add_message_topic::<TFMessage>("/tf", &qos)?,
+        ))
+    } else {
+        None
+    };
+    let encoding = match scene.spec().format {
+        PixelFormat::Mono8 => Encoding::Mono8,
+        PixelFormat::Rgb8 => Encoding::Rgb8,
+    };
+    let cameras: Vec<_> = scene.cameras().cloned().collect();
+
+    let progress = ProgressBar::new(truth.frames.len() as u64);
+    if let Ok(style) = ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}") {
+        progress.set_style(style);
+    }
+    for frame in &truth.frames {
+        let stamp = ros_time(&frame.stamp);
+        let log_time = u64::try_from(stamp.as_nanos()).context("stamp before 1970")?;
+        let images = scene
+            .render_frame(frame.index)
+            .context("frame index out of range")?;
+        for ((image, record), ((image_topic, info_topic), camera)) in images
+            .iter()
+            .zip(&truth.cameras)
+            .zip(topics.iter().zip(&cameras))
+        {
+            let header = Header {
+                stamp,
+                frame_id: format!("{}_optical_frame", record.name),
+            };
+            let message = msg_from_image(image, encoding, header.clone())?;
+            bag.write_message(*image_topic, log_time, &message)?;
+            bag.write_message(*info_topic, log_time, &info_from_raw_camera(camera, header))?;
+        }
+        if let (Some((pose_topic, tf_topic)), Some(base_from_tool)) = (robot, &frame.base_from_tool)
+        {
+            let base_from_tool = base_from_tool.isometry();
+            let header = Header {
+                stamp,
+                frame_id: BASE_FRAME.to_owned(),
+            };
+            let pose = PoseStamped {
+                header: header.clone(),
+                pose: pose_msg(&base_from_tool),
+            };
+            bag.write_message(pose_topic, log_time, &pose)?;
+            let tf = TFMessage {
+                transforms: vec![TransformStamped {
+                    header,
+                    child_frame_id: TOOL_FRAME.to_owned(),
+                    transform: transform_msg(&base_from_tool),
+                }],
+            };
+            bag.write_message(tf_topic, log_time, &tf)?;
+        }
+        progress.inc(1);
+    }
+    progress.finish_and_clear();
+    bag.finish()
+        .with_context(|| format!("cannot finish the bag {}", path.display()))?;
+    Ok(())
+}
+
+fn ros_time(stamp: &StampRecord) -> Time {
+    Time {
+        sec: stamp.sec,
+        nanosec: stamp.nanosec,
+    }
+}
+
+fn pose_msg(transform: &Isometry3<f64>) -> Pose {
+    let t = transform.translation.vector;
+    let q = transform.rotation.quaternion();
+    Pose {
+        position: Point {
+            x: t.x,
+            y: t.y,
+            z: t.z,
+        },
+        orientation: Quaternion {
+            x: q.i,
+            y: q.j,
+            z: q.k,
+            w: q.w,
+        },
+    }
+}
+
+fn transform_msg(transform: &Isometry3<f64>) -> Transform {
+    let pose = pose_msg(transform);
+    Transform {
+        translation: Vector3 {
+            x: pose.position.x,
+            y: pose.position.y,
+            z: pose.position.z,
+        },
+        rotation: pose.orientation,
+    }
+}
+
+/// Writes `value` as pretty JSON to a temporary file beside `path`, then renames it
+/// into place.
+fn write_json_atomically(path: &Path, value: &GroundTruth) -> anyhow::Result<()> {
+    let dir = path.parent().unwrap_or_else(|| Path::new("."));
+    let mut temp = tempfile::NamedTempFile::new_in(dir)
+        .with_context(|| format!("cannot create a file in {}", dir.display()))?;
+    serde_json::to_writer_pretty(&mut temp, value)?;
+    temp.write_all(b"\n")?;
+    // Readable like any other output file, not private as temporary files are.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        temp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644))?;
+    }
+    temp.as_file().sync_all()?;
+    temp.persist(path)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+/// `left.yaml` and `right.yaml`: the true intrinsics and distortion with the R and P of
+/// the rig's stereo rectification (OpenCV defaults; balance 0 for fisheye).
+fn write_rectified_camera_infos(scene: &Scene, out: &Path) -> anyhow::Result<()> {
+    let truth = scene.truth();
+    let cameras: Vec<_> = scene.cameras().cloned().collect();
+    let (Some(left), Some(right), Some(right_from_left)) = (
+        cameras.first(),
+        cameras.get(1),
+        truth.extrinsics.right_from_left.as_ref(),
+    ) else {
+        bail!("a stereo scene needs two cameras and right_from_left");
+    };
+    let right_from_left = right_from_left.isometry();
+    let rectification: StereoRectification =
+        if left.distortion.model() == DistortionModel::Equidistant {
+            fisheye_stereo_rectify(left, right, &right_from_left, true, 0.0, None, 1.0)?
+        } else {
+            stereo_rectify(
+                left,
+                right,
+                &right_from_left,
+                &StereoRectifyOptions::default(),
+            )?
+        };
+    let sides: [(&str, _, Matrix3<f64>, Matrix3x4<f64>); 2] = [
+        (
+            "left",
+            left,
+            rectification.left_rectified_from_original.into_inner(),
+            rectification.left_projection,
+        ),
+        (
+            "right",
+            right,
+            rectification.right_rectified_from_original.into_inner(),
+            rectification.right_projection,
+        ),
+    ];
+    for (name, model, rectified_from_camera, projection) in sides {
+        let info = info_from_calibrated(
+            &CalibratedCamera {
+                model: model.clone(),
+                rectified_from_camera,
+                projection,
+            },
+            Header::default(),
+        );
+        let file = CameraInfoFile {
+            camera_name: name.to_owned(),
+            info,
+        };
+        let path = out.join(format!("{name}.yaml"));
+        file.write(&path)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bag::{BagReader, TopicFilter};
+    use stereocal_msgs::cdr;
+
+    fn args(scene: SceneArg, out: &Path) -> SynthArgs {
+        SynthArgs {
+            scene,
+            out: out.to_path_buf(),
+            seed: 9,
+            frames: Some(2),
+            width: 320,
+            height: 240,
+            model: ModelArg::PlumbBob,
+            bad_frames: None,
+            rgb: false,
+            vertical: false,
+        }
+    }
+
+    #[test]
+    fn hand_eye_bag_has_images_camera_info_and_robot_poses() {
+        let dir = tempfile::tempdir().unwrap();
+        run(&args(SceneArg::HandeyeToHand, dir.path())).unwrap();
+        let truth: GroundTruth = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join("ground_truth.json")).unwrap(),
+        )
+        .unwrap();
+        let bag = BagReader::open(dir.path().join("bag")).unwrap();
+        let names: Vec<&str> = bag.topics().iter().map(|t| t.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "/camera/camera_info",
+                "/camera/image_raw",
+                "/robot/tool_pose",
+                "/tf"
+            ]
+        );
+        assert!(bag.topics().iter().all(|t| t.message_count == 2));
+        let mut poses = 0;
+        for message in bag.messages(&TopicFilter::All) {
+            let message = message.unwrap();
+            if &*message.topic == "/robot/tool_pose" {
+                let pose: PoseStamped = cdr::from_bytes(&message.data).unwrap();
+                let expected = truth.frames[poses].base_from_tool.as_ref().unwrap();
+                assert!((pose.pose.position.x - expected.translation_m[0]).abs() < 1e-12);
+                assert_eq!(pose.header.frame_id, BASE_FRAME);
+                poses += 1;
+            }
+            if &*message.topic == "/camera/camera_info" {
+                let info: CameraInfo = cdr::from_bytes(&message.data).unwrap();
+                let k = truth.cameras[0].camera_matrix_row_major;
+                assert!(info.k.iter().zip(k).all(|(a, b)| (a - b).abs() < 1e-9));
+                assert_eq!(info.r, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+            }
+        }
+        assert_eq!(poses, 2);
+    }
+
+    #[test]
+    fn stereo_output_is_deterministic_and_has_rectified_camera_infos() {
+        let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        run(&args(SceneArg::Stereo, a.path())).unwrap();
+        run(&args(SceneArg::Stereo, b.path())).unwrap();
+        for file in [
+            "ground_truth.json",
+            "bag/bag_0.mcap",
+            "left.yaml",
+            "right.yaml",
+        ] {
+            let read = |dir: &Path| std::fs::read(dir.join(file)).unwrap();
+            assert_eq!(read(a.path()), read(b.path()), "{file} differs");
+        }
+        let right = CameraInfoFile::read(a.path().join("right.yaml")).unwrap();
+        // A horizontal rig: P[0, 3] = -fx * baseline, with a 0.12 m baseline.
+        let (fx, tx) = (right.info.p[0], right.info.p[3]);
+        assert!((tx / fx + 0.12).abs() < 1e-9, "{tx} / {fx}");
+    }
+}
