@@ -10,3 +10,4 @@ pub mod rectify_stage;
 pub mod replay;
 pub mod row_alignment;
 pub mod runtime;
+pub mod stereo_scene;

@@ -4,11 +4,17 @@
 //! the two positions are compared across the baseline: same row for a horizontal rig,
 //! same column for a vertical one.
 
-use nalgebra::{Point2, Vector3};
-use stereocal_vision::image::Image;
-use stereocal_vision::synth::{SaddleFit, saddle_point};
+use std::collections::BTreeMap;
 
-use crate::convert::CalibratedCamera;
+use nalgebra::{Point2, Vector3};
+use stereocal_msgs::sensor_msgs;
+use stereocal_vision::image::Image;
+use stereocal_vision::synth::{FrameKind, GroundTruth, SaddleFit, ViewRecord, saddle_point};
+
+use crate::convert::{CalibratedCamera, image_from_msg};
+
+/// Rectified images of one camera by stamp `(sec, nanosec)`.
+pub type RectifiedByStamp = BTreeMap<(i32, u32), sensor_msgs::Image>;
 
 /// The rectified pixel of a raw pixel: undistorted, rotated by `R` and projected by the
 /// left 3x3 block of `P` (what the rectify maps invert). `None` when the pixel has no
@@ -106,4 +112,58 @@ pub fn measure_pair(
         }
     }
     alignment
+}
+
+/// Row alignment over the clean frames of a synthetic stereo scene: for every frame of
+/// `truth` that is clean and has rectified images from both cameras, the ground-truth
+/// corners are measured in the rectified pair. Returns the figures and the number of
+/// frames measured.
+pub fn measure_stereo_scene(
+    truth: &GroundTruth,
+    left: &CalibratedCamera,
+    right: &CalibratedCamera,
+    left_rect: &RectifiedByStamp,
+    right_rect: &RectifiedByStamp,
+) -> (RowAlignment, usize) {
+    let mut total = RowAlignment::default();
+    let mut frames = 0;
+    for frame in truth.frames.iter().filter(|f| f.kind == FrameKind::Clean) {
+        let stamp = (frame.stamp.sec, frame.stamp.nanosec);
+        let (Some(l_msg), Some(r_msg), [l_view, r_view, ..]) = (
+            left_rect.get(&stamp),
+            right_rect.get(&stamp),
+            frame.views.as_slice(),
+        ) else {
+            continue;
+        };
+        let (Ok((_, l_img)), Ok((_, r_img))) = (image_from_msg(l_msg), image_from_msg(r_msg))
+        else {
+            continue;
+        };
+        total.merge(&measure_pair(
+            &l_img,
+            &r_img,
+            left,
+            right,
+            &visible_corners(l_view),
+            &visible_corners(r_view),
+        ));
+        frames += 1;
+    }
+    (total, frames)
+}
+
+/// Per corner id, the raw pixel of a visible corner.
+fn visible_corners(view: &ViewRecord) -> Vec<Option<Point2<f64>>> {
+    let mut corners = Vec::new();
+    for corner in &view.corners {
+        if corners.len() <= corner.id {
+            corners.resize(corner.id + 1, None);
+        }
+        corners[corner.id] = corner
+            .pixel
+            .filter(|_| corner.visible)
+            .map(|[x, y]| Point2::new(x, y));
+    }
+    corners
 }

@@ -1,5 +1,6 @@
 //! The offline commands of the `stereocal` binary, one module per command; each exposes
 //! its clap `Args` and a `run` function.
 
+pub mod demo;
 pub mod rectify;
 pub mod synth;

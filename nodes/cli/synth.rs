@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use nalgebra::{Isometry3, Matrix3, Matrix3x4};
+use nalgebra::Isometry3;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
 use stereocal_msgs::geometry_msgs::{
@@ -195,7 +195,19 @@ fn write_bag(scene: &Scene, path: &Path) -> anyhow::Result<()> {
         PixelFormat::Mono8 => Encoding::Mono8,
         PixelFormat::Rgb8 => Encoding::Rgb8,
     };
+    // A stereo rig is recorded calibrated: its camera_info carry the rectification, as
+    // a calibrated stereo camera's driver publishes them. Other scenes carry the raw
+    // cameras (R = I, P = [K|0]).
+    let rectified = if kind == SceneKind::Stereo {
+        Some(rectified_cameras(scene)?)
+    } else {
+        None
+    };
     let cameras: Vec<_> = scene.cameras().cloned().collect();
+    let camera_info = |index: usize, header: Header| match &rectified {
+        Some(rectified) => info_from_calibrated(&rectified[index], header),
+        None => info_from_raw_camera(&cameras[index], header),
+    };
 
     let progress = ProgressBar::new(truth.frames.len() as u64);
     if let Ok(style) = ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}") {
@@ -207,10 +219,8 @@ fn write_bag(scene: &Scene, path: &Path) -> anyhow::Result<()> {
         let images = scene
             .render_frame(frame.index)
             .context("frame index out of range")?;
-        for ((image, record), ((image_topic, info_topic), camera)) in images
-            .iter()
-            .zip(&truth.cameras)
-            .zip(topics.iter().zip(&cameras))
+        for (index, ((image, record), (image_topic, info_topic))) in
+            images.iter().zip(&truth.cameras).zip(&topics).enumerate()
         {
             let header = Header {
                 stamp,
@@ -218,7 +228,7 @@ fn write_bag(scene: &Scene, path: &Path) -> anyhow::Result<()> {
             };
             let message = msg_from_image(image, encoding, header.clone())?;
             bag.write_message(*image_topic, log_time, &message)?;
-            bag.write_message(*info_topic, log_time, &info_from_raw_camera(camera, header))?;
+            bag.write_message(*info_topic, log_time, &camera_info(index, header))?;
         }
         if let (Some((pose_topic, tf_topic)), Some(base_from_tool)) = (robot, &frame.base_from_tool)
         {
@@ -307,9 +317,9 @@ fn write_json_atomically(path: &Path, value: &GroundTruth) -> anyhow::Result<()>
     Ok(())
 }
 
-/// `left.yaml` and `right.yaml`: the true intrinsics and distortion with the R and P of
-/// the rig's stereo rectification (OpenCV defaults; balance 0 for fisheye).
-fn write_rectified_camera_infos(scene: &Scene, out: &Path) -> anyhow::Result<()> {
+/// The cameras of a stereo scene with the R and P of the rig's stereo rectification
+/// (OpenCV defaults; balance 0 for fisheye): what a calibrated rig's camera_info carry.
+fn rectified_cameras(scene: &Scene) -> anyhow::Result<[CalibratedCamera; 2]> {
     let truth = scene.truth();
     let cameras: Vec<_> = scene.cameras().cloned().collect();
     let (Some(left), Some(right), Some(right_from_left)) = (
@@ -331,118 +341,31 @@ fn write_rectified_camera_infos(scene: &Scene, out: &Path) -> anyhow::Result<()>
                 &StereoRectifyOptions::default(),
             )?
         };
-    let sides: [(&str, _, Matrix3<f64>, Matrix3x4<f64>); 2] = [
-        (
-            "left",
-            left,
-            rectification.left_rectified_from_original.into_inner(),
-            rectification.left_projection,
-        ),
-        (
-            "right",
-            right,
-            rectification.right_rectified_from_original.into_inner(),
-            rectification.right_projection,
-        ),
-    ];
-    for (name, model, rectified_from_camera, projection) in sides {
-        let info = info_from_calibrated(
-            &CalibratedCamera {
-                model: model.clone(),
-                rectified_from_camera,
-                projection,
-            },
-            Header::default(),
-        );
+    Ok([
+        CalibratedCamera {
+            model: left.clone(),
+            rectified_from_camera: rectification.left_rectified_from_original.into_inner(),
+            projection: rectification.left_projection,
+        },
+        CalibratedCamera {
+            model: right.clone(),
+            rectified_from_camera: rectification.right_rectified_from_original.into_inner(),
+            projection: rectification.right_projection,
+        },
+    ])
+}
+
+/// `left.yaml` and `right.yaml`: the true intrinsics and distortion with the R and P of
+/// the rig's stereo rectification.
+fn write_rectified_camera_infos(scene: &Scene, out: &Path) -> anyhow::Result<()> {
+    for (name, camera) in ["left", "right"].into_iter().zip(rectified_cameras(scene)?) {
         let file = CameraInfoFile {
             camera_name: name.to_owned(),
-            info,
+            info: info_from_calibrated(&camera, Header::default()),
         };
         let path = out.join(format!("{name}.yaml"));
         file.write(&path)
             .with_context(|| format!("cannot write {}", path.display()))?;
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::bag::{BagReader, TopicFilter};
-    use stereocal_msgs::cdr;
-
-    fn args(scene: SceneArg, out: &Path) -> SynthArgs {
-        SynthArgs {
-            scene,
-            out: out.to_path_buf(),
-            seed: 9,
-            frames: Some(2),
-            width: 320,
-            height: 240,
-            model: ModelArg::PlumbBob,
-            bad_frames: None,
-            rgb: false,
-            vertical: false,
-        }
-    }
-
-    #[test]
-    fn hand_eye_bag_has_images_camera_info_and_robot_poses() {
-        let dir = tempfile::tempdir().unwrap();
-        run(&args(SceneArg::HandeyeToHand, dir.path())).unwrap();
-        let truth: GroundTruth = serde_json::from_str(
-            &std::fs::read_to_string(dir.path().join("ground_truth.json")).unwrap(),
-        )
-        .unwrap();
-        let bag = BagReader::open(dir.path().join("bag")).unwrap();
-        let names: Vec<&str> = bag.topics().iter().map(|t| t.name.as_str()).collect();
-        assert_eq!(
-            names,
-            [
-                "/camera/camera_info",
-                "/camera/image_raw",
-                "/robot/tool_pose",
-                "/tf"
-            ]
-        );
-        assert!(bag.topics().iter().all(|t| t.message_count == 2));
-        let mut poses = 0;
-        for message in bag.messages(&TopicFilter::All) {
-            let message = message.unwrap();
-            if &*message.topic == "/robot/tool_pose" {
-                let pose: PoseStamped = cdr::from_bytes(&message.data).unwrap();
-                let expected = truth.frames[poses].base_from_tool.as_ref().unwrap();
-                assert!((pose.pose.position.x - expected.translation_m[0]).abs() < 1e-12);
-                assert_eq!(pose.header.frame_id, BASE_FRAME);
-                poses += 1;
-            }
-            if &*message.topic == "/camera/camera_info" {
-                let info: CameraInfo = cdr::from_bytes(&message.data).unwrap();
-                let k = truth.cameras[0].camera_matrix_row_major;
-                assert!(info.k.iter().zip(k).all(|(a, b)| (a - b).abs() < 1e-9));
-                assert_eq!(info.r, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
-            }
-        }
-        assert_eq!(poses, 2);
-    }
-
-    #[test]
-    fn stereo_output_is_deterministic_and_has_rectified_camera_infos() {
-        let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
-        run(&args(SceneArg::Stereo, a.path())).unwrap();
-        run(&args(SceneArg::Stereo, b.path())).unwrap();
-        for file in [
-            "ground_truth.json",
-            "bag/bag_0.mcap",
-            "left.yaml",
-            "right.yaml",
-        ] {
-            let read = |dir: &Path| std::fs::read(dir.join(file)).unwrap();
-            assert_eq!(read(a.path()), read(b.path()), "{file} differs");
-        }
-        let right = CameraInfoFile::read(a.path().join("right.yaml")).unwrap();
-        // A horizontal rig: P[0, 3] = -fx * baseline, with a 0.12 m baseline.
-        let (fx, tx) = (right.info.p[0], right.info.p[3]);
-        assert!((tx / fx + 0.12).abs() < 1e-9, "{tx} / {fx}");
-    }
 }

@@ -1,0 +1,188 @@
+//! `stereocal demo`: the main job on the bundled stereo bag. Rectifies it offline and
+//! through two rectify nodes over DDS, and measures on the rectified pixels how well
+//! the rows of the left and right images agree, against the scene's ground truth.
+
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use anyhow::{Context, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+
+use crate::cli::rectify::{BagRectifyOptions, rectify_bag};
+use crate::cli::synth::{ModelArg, SceneArg, SynthArgs};
+use crate::replay::{NodeReplay, ReplayOutcome, replay_through_rectify_nodes};
+use crate::row_alignment::RowAlignment;
+use crate::stereo_scene::{LEFT, RIGHT, StereoScene, identical_images, read_rectified};
+
+/// The bundled stereo scene, made by `stereocal synth` with these settings.
+pub const BUNDLED_STEREO: &str = "bags/stereo";
+
+/// Arguments of `stereocal demo`.
+#[derive(clap::Args, Debug)]
+pub struct DemoArgs {
+    /// A scene made by `stereocal synth --scene stereo` (a folder with `bag/` and
+    /// `ground_truth.json`); default: the bundled one, synthesized if missing.
+    #[arg(long)]
+    pub scene: Option<PathBuf>,
+    /// Where to write the rectified bags; default: a temporary folder removed at the end.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// ROS domain of the node run (the nodes and the player join only this domain).
+    #[arg(long, default_value_t = 77)]
+    pub domain_id: u16,
+    /// Frames per second replayed through the nodes.
+    #[arg(long, default_value_t = 15.0)]
+    pub rate: f64,
+    /// Skip the run through the nodes over DDS.
+    #[arg(long)]
+    pub offline_only: bool,
+}
+
+/// Runs the demo and prints its figures.
+pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
+    let temp = tempfile::tempdir().context("cannot create a temporary folder")?;
+    let out = args.out.clone().unwrap_or_else(|| temp.path().to_owned());
+    std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
+    let scene = match &args.scene {
+        Some(scene) => scene.clone(),
+        None => bundled_or_synthesized(&out)?,
+    };
+    println!("stereocal demo: scene {}", scene.display());
+    let scene = StereoScene::open(&scene)?;
+    let camera = &scene.left.model;
+    println!(
+        "  {} stereo frames, {} clean; {}x{} {}",
+        scene.truth.frames.len(),
+        scene.clean_frames(),
+        camera.width,
+        camera.height,
+        camera.distortion.model().ros_name()
+    );
+
+    // Offline.
+    let progress = ProgressBar::new(0).with_style(
+        ProgressStyle::with_template("  rectifying {bar:30} {pos}/{len} frames")
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+    );
+    let rectified_bag = out.join("rectified");
+    let report = rectify_bag(
+        &scene.bag,
+        &rectified_bag,
+        &BagRectifyOptions {
+            overwrite: true,
+            ..BagRectifyOptions::default()
+        },
+        &progress,
+    )?;
+    progress.finish_and_clear();
+    let offline = read_rectified(&rectified_bag)?;
+    let (offline_alignment, offline_frames) = scene.row_alignment(&offline);
+    println!(
+        "\noffline: stereocal rectify -> {} ({:.1} frames/s)",
+        rectified_bag.display(),
+        report.frames_per_second()
+    );
+    print_alignment(&offline_alignment, offline_frames);
+
+    if args.offline_only {
+        return Ok(());
+    }
+
+    // On the robot's path: two rectify nodes, each its own process, over DDS.
+    let exe = std::env::current_exe().context("cannot find this executable")?;
+    let cameras = [LEFT.to_owned(), RIGHT.to_owned()];
+    let outcome = replay_through_rectify_nodes(
+        &scene.bag,
+        &cameras,
+        &NodeReplay {
+            node_command: vec![exe.into(), "node".into(), "rectify".into()],
+            domain_id: args.domain_id,
+            rate_hz: args.rate,
+            timeout: Duration::from_secs(30),
+        },
+    )?;
+    let nodes = [
+        outcome.rectified.get(LEFT).cloned().unwrap_or_default(),
+        outcome.rectified.get(RIGHT).cloned().unwrap_or_default(),
+    ];
+    let (node_alignment, node_frames) = scene.row_alignment(&nodes);
+    println!(
+        "\nnodes: 2 x rectify_node over DDS (domain {}, {:.0} Hz)",
+        args.domain_id, args.rate
+    );
+    println!(
+        "  frames delivered                {}/{}",
+        outcome.received(),
+        outcome.total_sent()
+    );
+    print_latency(&outcome);
+    println!(
+        "  pixels identical to offline     {}/{} images",
+        identical_images(&offline, &nodes),
+        outcome.received()
+    );
+    print_alignment(&node_alignment, node_frames);
+    if outcome.received() < outcome.total_sent() {
+        bail!(
+            "the nodes delivered {} of {} frames",
+            outcome.received(),
+            outcome.total_sent()
+        );
+    }
+    Ok(())
+}
+
+/// The bundled scene of the source tree, or one synthesized with the same settings
+/// into `out` when this executable runs outside it.
+fn bundled_or_synthesized(out: &Path) -> anyhow::Result<PathBuf> {
+    let bundled = Path::new(env!("CARGO_MANIFEST_DIR")).join(BUNDLED_STEREO);
+    if bundled.join("bag").exists() && bundled.join("ground_truth.json").exists() {
+        return Ok(bundled);
+    }
+    let scene = out.join("stereo");
+    println!(
+        "the bundled scene is not here: synthesizing one into {}",
+        scene.display()
+    );
+    crate::cli::synth::run(&bundled_stereo_args(scene.clone()))?;
+    Ok(scene)
+}
+
+/// The `stereocal synth` arguments of the bundled stereo scene.
+pub fn bundled_stereo_args(out: PathBuf) -> SynthArgs {
+    SynthArgs {
+        scene: SceneArg::Stereo,
+        out,
+        seed: 1,
+        frames: Some(8),
+        width: 640,
+        height: 480,
+        model: ModelArg::PlumbBob,
+        bad_frames: Some(0.0),
+        rgb: false,
+        vertical: false,
+    }
+}
+
+fn print_alignment(alignment: &RowAlignment, frames: usize) {
+    println!(
+        "  row alignment (clean frames)    mean |dy| {:.4} px, max {:.4} px over {} corners in {} frames",
+        alignment.mean_abs_offset(),
+        alignment.max_abs_offset,
+        alignment.corners,
+        frames
+    );
+}
+
+fn print_latency(outcome: &ReplayOutcome) {
+    let ms = |q| {
+        outcome
+            .latency_quantile(q)
+            .map_or(f64::NAN, |d| d.as_secs_f64() * 1e3)
+    };
+    println!(
+        "  latency publish -> image_rect   p50 {:.1} ms, p99 {:.1} ms",
+        ms(0.5),
+        ms(0.99)
+    );
+}
