@@ -5,7 +5,6 @@
 //! (8) and `equidistant` (4).
 
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 use serde_yaml::Value;
@@ -221,16 +220,7 @@ impl CameraInfoFile {
             path: path.to_owned(),
             source,
         };
-        let dir = match path.parent() {
-            Some(dir) if !dir.as_os_str().is_empty() => dir,
-            _ => Path::new("."),
-        };
-        std::fs::create_dir_all(dir).map_err(io_error)?;
-        let mut temp = tempfile::NamedTempFile::new_in(dir).map_err(io_error)?;
-        temp.write_all(text.as_bytes()).map_err(io_error)?;
-        temp.as_file().sync_all().map_err(io_error)?;
-        temp.persist(path).map_err(|e| io_error(e.error))?;
-        Ok(())
+        crate::atomic_file::write(path, text.as_bytes()).map_err(io_error)
     }
 }
 

@@ -8,6 +8,7 @@
 //! [`CameraInfoFile`] reads and writes the camera_info files of ROS's
 //! `camera_calibration_parsers`.
 
+pub mod atomic_file;
 pub mod builtin_interfaces;
 pub mod camera_info_file;
 pub mod cdr;

@@ -1,12 +1,12 @@
 //! `stereocal synth`: renders a synthetic scene into a rosbag2 bag, with its ground
 //! truth beside it (and, for stereo rigs, the true camera_info files).
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use nalgebra::Isometry3;
+use stereocal_msgs::atomic_file;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
 use stereocal_msgs::geometry_msgs::{
@@ -296,25 +296,11 @@ fn transform_msg(transform: &Isometry3<f64>) -> Transform {
     }
 }
 
-/// Writes `value` as pretty JSON to a temporary file beside `path`, then renames it
-/// into place.
+/// Writes `value` as pretty JSON to `path`, atomically.
 fn write_json_atomically(path: &Path, value: &GroundTruth) -> anyhow::Result<()> {
-    let dir = path.parent().unwrap_or_else(|| Path::new("."));
-    let mut temp = tempfile::NamedTempFile::new_in(dir)
-        .with_context(|| format!("cannot create a file in {}", dir.display()))?;
-    serde_json::to_writer_pretty(&mut temp, value)?;
-    temp.write_all(b"\n")?;
-    // Readable like any other output file, not private as temporary files are.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        temp.as_file()
-            .set_permissions(std::fs::Permissions::from_mode(0o644))?;
-    }
-    temp.as_file().sync_all()?;
-    temp.persist(path)
-        .with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+    let mut json = serde_json::to_vec_pretty(value)?;
+    json.push(b'\n');
+    atomic_file::write(path, &json).with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// The cameras of a stereo scene with the R and P of the rig's stereo rectification
