@@ -43,20 +43,21 @@ impl Rect {
         self.points[b * self.width + a]
     }
 
-    /// Corner `(a, b)`, extrapolated linearly by one step beyond each side.
+    /// Corner `(a, b)`, extrapolated linearly beyond each side.
     fn extended(&self, a: isize, b: isize) -> Point2<f64> {
         let clamp = |k: isize, n: usize| k.clamp(0, n as isize - 1) as usize;
         let (ca, cb) = (clamp(a, self.width), clamp(b, self.height));
         let mut p = self.at(ca, cb);
+        let (w, h) = (self.width as isize, self.height as isize);
         if a < 0 {
-            p += self.at(ca, cb) - self.at(ca + 1, cb);
-        } else if a as usize >= self.width {
-            p += self.at(ca, cb) - self.at(ca - 1, cb);
+            p += (self.at(ca, cb) - self.at(ca + 1, cb)) * (-a) as f64;
+        } else if a >= w {
+            p += (self.at(ca, cb) - self.at(ca - 1, cb)) * (a - w + 1) as f64;
         }
         if b < 0 {
-            p += self.at(ca, cb) - self.at(ca, cb + 1);
-        } else if b as usize >= self.height {
-            p += self.at(ca, cb) - self.at(ca, cb - 1);
+            p += (self.at(ca, cb) - self.at(ca, cb + 1)) * (-b) as f64;
+        } else if b >= h {
+            p += (self.at(ca, cb) - self.at(ca, cb - 1)) * (b - h + 1) as f64;
         }
         p
     }
@@ -199,6 +200,52 @@ fn complete_rect(corners: &[GridCorner]) -> Option<Rect> {
     })
 }
 
+/// Adds the one line of corners a grid lacks to be `cols x rows` (the detector
+/// often misses the corners of a line near the image border), extrapolated on the
+/// side where the board goes on: two squares beyond the grid on that side, the
+/// squares still alternate (or leave the image), while on the other side they are
+/// the margin. `None` when that does not single out one side. The caller checks that
+/// the added corners are real corners.
+fn grow_to(rect: &Rect, gray: &Gray, cols: usize, rows: usize) -> Option<Rect> {
+    let inside = rect.alternation(gray, (0..rect.width as isize - 1).map(|a| (a, 0)))?;
+    let board_goes_on = |alternation: Option<f64>| alternation.is_none_or(|s| s >= 0.5 * inside);
+    let (w, h) = (rect.width as isize, rect.height as isize);
+    // (first new index along the grown axis, whether rows grow)
+    let mut sides = Vec::new();
+    if rect.width == cols && rect.height + 1 == rows {
+        if board_goes_on(rect.alternation(gray, (0..w - 1).map(|a| (a, -2)))) {
+            sides.push((-1, true));
+        }
+        if board_goes_on(rect.alternation(gray, (0..w - 1).map(|a| (a, h)))) {
+            sides.push((h, true));
+        }
+    } else if rect.height == rows && rect.width + 1 == cols {
+        if board_goes_on(rect.alternation(gray, (0..h - 1).map(|b| (-2, b)))) {
+            sides.push((-1, false));
+        }
+        if board_goes_on(rect.alternation(gray, (0..h - 1).map(|b| (w, b)))) {
+            sides.push((w, false));
+        }
+    }
+    let [(start, rows_grow)] = sides[..] else {
+        return None;
+    };
+    let (a_range, b_range) = if rows_grow {
+        (0..w, start.min(0)..start.max(h - 1) + 1)
+    } else {
+        (start.min(0)..start.max(w - 1) + 1, 0..h)
+    };
+    let points = b_range
+        .flat_map(|b| a_range.clone().map(move |a| (a, b)))
+        .map(|(a, b)| rect.extended(a, b))
+        .collect();
+    Some(Rect {
+        width: cols,
+        height: rows,
+        points,
+    })
+}
+
 /// Removes outer lines of corners that are not inner corners of a chessboard (the
 /// squares beyond them do not alternate) until the grid is `cols x rows`; `None`
 /// when it cannot get there.
@@ -246,7 +293,9 @@ pub(crate) fn board_corners(
     let rect = complete_rect(corners)?;
     let mut layouts = Vec::new();
     for candidate in [rect.clone(), rect.transposed()] {
-        if let Some(fitted) = trim_to(candidate, gray, cols, rows) {
+        if let Some(fitted) = trim_to(candidate.clone(), gray, cols, rows)
+            .or_else(|| grow_to(&candidate, gray, cols, rows))
+        {
             layouts.push(fitted);
         }
     }
@@ -407,7 +456,6 @@ mod tests {
         let corners = grid(9, 6, 20.0, 40.0);
         assert!(board_corners(&corners, &gray, 8, 5).is_none());
         assert!(board_corners(&corners, &gray, 10, 6).is_none());
-        assert!(board_corners(&corners[..45], &gray, 9, 6).is_none());
         // A few missing corners are predicted; a sparse grid is refused.
         let mut holed = corners.clone();
         holed.remove(20);
@@ -426,6 +474,31 @@ mod tests {
         let ordered = board_corners(&with_edge, &gray, 9, 6).unwrap();
         assert_eq!(ordered.len(), 54);
         assert_eq!(ordered[8], Point2::new(199.5, 39.5));
+    }
+
+    #[test]
+    fn a_missing_outer_line_is_added_on_the_board_side() {
+        let gray = board_image(9, 6, 20, 40);
+        // The last row of corners was not found: it is added below, not above.
+        let without_last_row = grid(9, 5, 20.0, 40.0);
+        let ordered = board_corners(&without_last_row, &gray, 9, 6).unwrap();
+        assert_eq!(ordered, grid_positions(9, 6, 20.0, 40.0));
+        // Likewise a missing first column.
+        let without_first_column: Vec<GridCorner> = grid(9, 6, 20.0, 40.0)
+            .into_iter()
+            .filter(|c| c.u > 0)
+            .collect();
+        let ordered = board_corners(&without_first_column, &gray, 9, 6).unwrap();
+        assert_eq!(ordered, grid_positions(9, 6, 20.0, 40.0));
+        // A board two lines short is not grown.
+        assert!(board_corners(&grid(9, 4, 20.0, 40.0), &gray, 9, 6).is_none());
+    }
+
+    fn grid_positions(cols: usize, rows: usize, square: f64, origin: f64) -> Vec<Point2<f64>> {
+        grid(cols, rows, square, origin)
+            .into_iter()
+            .map(|c| c.position)
+            .collect()
     }
 
     #[test]

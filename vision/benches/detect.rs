@@ -1,0 +1,102 @@
+//! Chessboard detection (grid, ordering and sub-pixel refinement) per 1280x720
+//! synthetic frame: a 9x6 board in eight poses over the image, realistic light and
+//! noise on a cluttered background. The frames are also written as PNG to
+//! `target/detect_bench/`, where `interop/bench_detect_opencv.py` times OpenCV's
+//! findChessboardCorners + cornerSubPix on the same images in the same run.
+
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use criterion::{Criterion, Throughput, criterion_group, criterion_main};
+use nalgebra::{Isometry3, UnitQuaternion};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use stereocal_vision::board::{self, ChessboardDetector, Gray, TargetDetector};
+use stereocal_vision::camera::DistortionModel;
+use stereocal_vision::image::{Image, Samples};
+use stereocal_vision::synth::{
+    Background, Chessboard, Coverage, Photometry, PixelFormat, PoseRanges, PoseSampler, Renderer,
+    Shot, synthetic_camera,
+};
+
+const WIDTH: u32 = 1280;
+const HEIGHT: u32 = 720;
+const VIEWS: usize = 8;
+
+fn frames() -> Vec<Image> {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let camera = synthetic_camera(DistortionModel::PlumbBob, WIDTH, HEIGHT, &mut rng);
+    let board = Chessboard::new(9, 6, 0.04, 0.03).expect("valid board");
+    let renderer = Renderer::new(
+        camera.clone(),
+        board,
+        Arc::new(Background::new(7)),
+        UnitQuaternion::identity(),
+    );
+    let sampler = PoseSampler::new(
+        vec![(&camera, Isometry3::identity())],
+        board,
+        PoseRanges::default(),
+    );
+    (0..VIEWS)
+        .map(|index| {
+            let pose = sampler
+                .sample(&mut rng, index, Coverage::Full)
+                .expect("a pose");
+            renderer.render(&Shot {
+                camera_from_target: pose,
+                motion_to: None,
+                photometry: Photometry::realistic(),
+                supersampling: 4,
+                format: PixelFormat::Mono8,
+                noise_seed: index as u64,
+            })
+        })
+        .collect()
+}
+
+fn write_pngs(frames: &[Image]) {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/detect_bench");
+    std::fs::create_dir_all(&dir).expect("bench output directory");
+    for (index, frame) in frames.iter().enumerate() {
+        let Samples::U8(data) = &frame.samples else {
+            unreachable!("mono8 frames")
+        };
+        image::GrayImage::from_raw(frame.width as u32, frame.height as u32, data.clone())
+            .expect("size matches")
+            .save(dir.join(format!("frame{index:02}.png")))
+            .expect("PNG written");
+    }
+}
+
+fn detect(c: &mut Criterion) {
+    let frames = frames();
+    write_pngs(&frames);
+    let grays: Vec<Gray> = frames
+        .iter()
+        .map(|f| Gray::from_image(f).expect("valid frame"))
+        .collect();
+    let detector =
+        ChessboardDetector::new(board::Chessboard::new(9, 6, 0.04).expect("valid board"))
+            .expect("valid detector");
+    for (index, gray) in grays.iter().enumerate() {
+        assert!(
+            detector.detect_gray(gray).is_some(),
+            "frame {index} not detected"
+        );
+    }
+    let mut group = c.benchmark_group("detect_chessboard_1280x720");
+    group.throughput(Throughput::Elements(grays.len() as u64));
+    group.bench_function("frames", |b| {
+        b.iter(|| {
+            for gray in &grays {
+                black_box(detector.detect_gray(black_box(gray)));
+            }
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, detect);
+criterion_main!(benches);
