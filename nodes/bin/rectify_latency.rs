@@ -563,11 +563,10 @@ struct Shared {
 
 /// Takes rectified frames until told to stop, timing and checking each.
 fn receive(
-    subscription: Subscription<Image>,
+    mut subscription: Subscription<Image>,
     shared: &Shared,
     expected: &[Vec<u8>],
 ) -> anyhow::Result<()> {
-    let mut subscription = subscription;
     let mut poll = Poll::new()?;
     poll.registry()
         .register(&mut subscription, Token(0), Interest::READABLE)?;
