@@ -120,6 +120,42 @@ impl ChessboardDetector {
         best.map(|(_, ordered, predicted)| (ordered, predicted))
     }
 
+    /// How clearly corner `k` is a chessboard corner: the grey levels a quarter of a
+    /// square out along its four diagonals, as the smallest difference between
+    /// neighbouring quadrants (an X-junction's quadrants alternate; an edge of the
+    /// board or a T-junction has two equal neighbours). `None` off the image.
+    fn corner_contrast(&self, gray: &Gray, corners: &[Point2<f64>], k: usize) -> Option<f64> {
+        let cols = self.board.cols;
+        let i = k % cols;
+        let step = |a: usize, b: usize| corners[b] - corners[a];
+        let du = if i + 1 < cols {
+            step(k, k + 1)
+        } else {
+            step(k - 1, k)
+        };
+        let dv = if k + cols < corners.len() {
+            step(k, k + cols)
+        } else {
+            step(k - cols, k)
+        };
+        let q = corners[k];
+        let level = |su: f64, sv: f64| {
+            let p = q + du * (0.25 * su) + dv * (0.25 * sv);
+            gray.sample(p.x, p.y)
+        };
+        let quadrants = [
+            level(1.0, 1.0)?,
+            level(1.0, -1.0)?,
+            level(-1.0, -1.0)?,
+            level(-1.0, 1.0)?,
+        ];
+        Some(
+            (0..4)
+                .map(|n| (quadrants[n] - quadrants[(n + 1) % 4]).abs())
+                .fold(f64::INFINITY, f64::min),
+        )
+    }
+
     /// Shortest side of the squares around each corner, pixels.
     fn local_squares(&self, corners: &[Point2<f64>]) -> Vec<f64> {
         let (cols, rows) = (self.board.cols, self.board.rows);
@@ -172,9 +208,27 @@ impl TargetDetector for ChessboardDetector {
         let (mut corners, predicted) = found?;
         let squares = self.local_squares(&corners);
         let refined = refine_corners(gray, &mut corners, &squares, &self.window);
-        // A corner the grid lacked and we predicted must prove itself a saddle.
-        if predicted.iter().zip(&refined).any(|(&p, &r)| p && !r) {
-            return None;
+        // A corner the grid lacked and we predicted must prove itself a chessboard
+        // corner: refined, and with the contrast of the corners the grid found.
+        if predicted.iter().any(|&p| p) {
+            let contrasts: Vec<Option<f64>> = (0..corners.len())
+                .map(|k| self.corner_contrast(gray, &corners, k))
+                .collect();
+            let mut found: Vec<f64> = contrasts
+                .iter()
+                .zip(&predicted)
+                .filter_map(|(c, &p)| (!p).then_some(*c).flatten())
+                .collect();
+            if found.is_empty() {
+                return None;
+            }
+            found.sort_by(f64::total_cmp);
+            let reference = found[found.len() / 2];
+            let genuine =
+                |k: usize| refined[k] && contrasts[k].is_some_and(|c| c >= 0.5 * reference);
+            if (0..corners.len()).any(|k| predicted[k] && !genuine(k)) {
+                return None;
+            }
         }
         let mut sorted = squares.clone();
         sorted.sort_by(f64::total_cmp);

@@ -39,7 +39,7 @@ impl Default for SubpixelWindow {
         Self {
             fraction: 0.3,
             min_half: 2,
-            max_half: 24,
+            max_half: 12,
             max_iterations: 30,
             epsilon: 0.001,
             sigma_fraction: 0.1,
@@ -277,7 +277,7 @@ mod tests {
         let window = SubpixelWindow::default();
         assert_eq!(window.half_size(3.0), 2);
         assert_eq!(window.half_size(24.0), 7);
-        assert_eq!(window.half_size(500.0), 24);
+        assert_eq!(window.half_size(500.0), 12);
         assert_eq!(window.half_size(f64::NAN), 2);
     }
 
