@@ -20,7 +20,7 @@ pub use board::Chessboard;
 pub use photometry::Photometry;
 pub use poses::{Coverage, PoseRanges, PoseSampler};
 pub use render::{PixelFormat, Renderer, Shot};
-pub use saddle::{SaddleFit, saddle_point};
+pub use saddle::{SaddleFit, saddle_point, saddle_point_through_lens};
 pub use scene::{HandEye, RigLayout, Scene, SceneKind, SceneSpec, StereoRig, synthetic_camera};
 pub use truth::{
     CameraRecord, CornerRecord, ExtrinsicsRecord, FrameKind, FrameRecord, GroundTruth,
