@@ -3,6 +3,7 @@
 //! pipeline stages that nodes and the offline CLI share.
 
 pub mod bag;
+pub mod calibration_stage;
 pub mod cli;
 pub mod convert;
 pub mod rectify_node;

@@ -13,6 +13,9 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Calibrate a camera or a stereo pair from a bag of chessboard images, and write
+    /// camera_info YAML files (and stereo.yaml for a pair).
+    Calibrate(stereocal::cli::calibrate::CalibrateArgs),
     /// The main job on the bundled stereo bag: rectify it offline and through two
     /// rectify nodes over DDS, and measure row alignment against ground truth.
     Demo(stereocal::cli::demo::DemoArgs),
@@ -41,6 +44,7 @@ enum NodeCommand {
 fn main() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command {
+        Command::Calibrate(args) => stereocal::cli::calibrate::run(&args),
         Command::Demo(args) => stereocal::cli::demo::run(&args),
         Command::Rectify(args) => stereocal::cli::rectify::run(&args),
         Command::Synth(args) => stereocal::cli::synth::run(&args),

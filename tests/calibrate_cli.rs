@@ -1,0 +1,245 @@
+//! `stereocal calibrate` on a synthetic stereo calibration session (1024x768, 25 frames,
+//! about one in ten bad): the intrinsics and `right_from_left` against ground truth, the
+//! bad frames left out and reported, the files it writes, its `--json` output, and
+//! clear errors for a missing topic and a wrong board size.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use indicatif::ProgressBar;
+use stereocal::cli::calibrate::{CalibrateArgs, calibrate_bag};
+use stereocal::cli::synth::{ModelArg, SceneArg, SynthArgs};
+use stereocal_msgs::builtin_interfaces::Time;
+use stereocal_msgs::camera_info_file::CameraInfoFile;
+use stereocal_vision::camera::DistortionModel;
+use stereocal_vision::synth::{FrameKind, GroundTruth};
+
+/// Synthesizes a calibration session of `frames` frames into `dir`.
+fn synthesize(dir: &Path, frames: usize) -> GroundTruth {
+    stereocal::cli::synth::run(&SynthArgs {
+        scene: SceneArg::Calibration,
+        out: dir.to_path_buf(),
+        seed: 1,
+        frames: Some(frames),
+        width: 1024,
+        height: 768,
+        model: ModelArg::PlumbBob,
+        bad_frames: None,
+        rgb: false,
+        vertical: false,
+    })
+    .unwrap();
+    let text = std::fs::read_to_string(dir.join("ground_truth.json")).unwrap();
+    serde_json::from_str(&text).unwrap()
+}
+
+fn args(bag: PathBuf, out: PathBuf, truth: &GroundTruth) -> CalibrateArgs {
+    CalibrateArgs {
+        bag,
+        out,
+        pattern: "chessboard".to_owned(),
+        size: format!("{}x{}", truth.board.cols, truth.board.rows),
+        square: truth.board.square_size.to_string(),
+        topic: None,
+        left: Some("/stereo/left/image_raw".to_owned()),
+        right: Some("/stereo/right/image_raw".to_owned()),
+        model: DistortionModel::PlumbBob,
+        name: "camera".to_owned(),
+        json: false,
+    }
+}
+
+fn stamp(frame: &stereocal_vision::synth::FrameRecord) -> Time {
+    Time {
+        sec: frame.stamp.sec,
+        nanosec: frame.stamp.nanosec,
+    }
+}
+
+#[test]
+fn stereo_session_matches_ground_truth_and_reports_bad_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = synthesize(dir.path(), 25);
+    let out = dir.path().join("calibration");
+    let report = calibrate_bag(
+        &args(dir.path().join("bag"), out.clone(), &truth),
+        &ProgressBar::hidden(),
+    )
+    .unwrap();
+    let outcome = &report.outcome;
+    assert_eq!(outcome.cameras.len(), 2);
+
+    for (camera, record) in outcome.cameras.iter().zip(&truth.cameras) {
+        assert_eq!(camera.name, record.name);
+        let expected = record.camera_model().unwrap().intrinsics;
+        let got = camera.calibration.camera.intrinsics;
+        for (what, got, expected) in [
+            ("fx", got.fx, expected.fx),
+            ("fy", got.fy, expected.fy),
+            ("cx", got.cx, expected.cx),
+            ("cy", got.cy, expected.cy),
+        ] {
+            assert!(
+                (got - expected).abs() < 0.2,
+                "{} {what}: {got:.4} against {expected:.4}",
+                camera.name
+            );
+        }
+        // The YAML written reads back with the calibration and the rectification.
+        let file = CameraInfoFile::read(out.join(format!("{}.yaml", camera.name))).unwrap();
+        assert_eq!(file.camera_name, camera.name);
+        assert_eq!(file.info.k, camera.info.k);
+        assert_eq!(file.info.d, camera.info.d);
+        assert_eq!(file.info.r, camera.info.r);
+        assert_eq!(file.info.p, camera.info.p);
+        assert_eq!((file.info.width, file.info.height), (1024, 768));
+        assert_ne!(file.info.r, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+    }
+
+    let stereo = outcome.stereo.as_ref().unwrap();
+    let expected = truth
+        .extrinsics
+        .right_from_left
+        .as_ref()
+        .unwrap()
+        .isometry();
+    let got = stereo.calibration.right_from_left;
+    let angle = (got.rotation * expected.rotation.inverse())
+        .angle()
+        .to_degrees();
+    let offset = (got.translation.vector - expected.translation.vector).norm();
+    assert!(
+        angle < 0.05,
+        "right_from_left rotation off by {angle} degrees"
+    );
+    assert!(
+        offset < 0.3e-3,
+        "right_from_left translation off by {offset} m"
+    );
+
+    // Every bad frame is left out of the stereo solve and reported by a camera.
+    let bad: Vec<_> = truth
+        .frames
+        .iter()
+        .filter(|f| f.kind != FrameKind::Clean)
+        .collect();
+    assert!(!bad.is_empty());
+    for frame in bad {
+        let stamp = stamp(frame);
+        assert!(
+            !stereo.used.contains(&stamp),
+            "bad frame {} used",
+            frame.index
+        );
+        let reported = outcome
+            .cameras
+            .iter()
+            .flat_map(|c| &c.rejected)
+            .chain(&stereo.rejected)
+            .any(|r| r.stamp == stamp && !r.reason.is_empty());
+        assert!(
+            reported,
+            "bad frame {} ({:?}) not reported",
+            frame.index, frame.kind
+        );
+    }
+
+    let stereo_yaml: serde_yaml::Value =
+        serde_yaml::from_str(&std::fs::read_to_string(out.join("stereo.yaml")).unwrap()).unwrap();
+    for key in [
+        "right_from_left",
+        "essential_matrix",
+        "fundamental_matrix",
+        "rms",
+        "epipolar_rms",
+    ] {
+        assert!(stereo_yaml.get(key).is_some(), "stereo.yaml lacks {key}");
+    }
+    let translation = stereo_yaml["right_from_left"]["translation"]
+        .as_sequence()
+        .unwrap();
+    assert_eq!(translation.len(), 3);
+    assert_eq!(translation[0].as_f64().unwrap(), got.translation.vector.x);
+
+    // The binary's --json output: one object with the documented keys.
+    let json_out = dir.path().join("json");
+    let output = Command::new(env!("CARGO_BIN_EXE_stereocal"))
+        .args(["calibrate", "--bag"])
+        .arg(dir.path().join("bag"))
+        .arg("--out")
+        .arg(&json_out)
+        .args(["--pattern", "chessboard", "--size"])
+        .arg(format!("{}x{}", truth.board.cols, truth.board.rows))
+        .arg("--square")
+        .arg(truth.board.square_size.to_string())
+        .arg("--json")
+        .output()
+        .unwrap();
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let value: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    for name in ["left", "right"] {
+        let camera = &value["cameras"][name];
+        assert!(camera["rms"].as_f64().unwrap() > 0.0);
+        assert_eq!(camera["k"].as_array().unwrap().len(), 9);
+        assert_eq!(camera["d"].as_array().unwrap().len(), 5);
+        assert_eq!(camera["distortion_model"], "plumb_bob");
+        assert_eq!(camera["width"], 1024);
+        assert_eq!(camera["height"], 768);
+        assert!(camera["views_used"].as_u64().unwrap() >= 15);
+        for rejected in camera["views_rejected"].as_array().unwrap() {
+            assert!(rejected["stamp"]["sec"].is_i64());
+            assert!(!rejected["reason"].as_str().unwrap().is_empty());
+        }
+    }
+    let stereo = &value["stereo"];
+    assert!(stereo["rms"].as_f64().unwrap() > 0.0);
+    assert!(stereo["epipolar_rms"].as_f64().unwrap() > 0.0);
+    assert_eq!(
+        stereo["right_from_left"]["rotation"]
+            .as_array()
+            .unwrap()
+            .len(),
+        9
+    );
+    let x = stereo["right_from_left"]["translation"][0]
+        .as_f64()
+        .unwrap();
+    assert!((x - expected.translation.vector.x).abs() < 0.3e-3);
+    assert!(json_out.join("left.yaml").is_file() && json_out.join("stereo.yaml").is_file());
+}
+
+#[test]
+fn missing_topic_and_wrong_board_size_give_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = synthesize(dir.path(), 3);
+    let bag = dir.path().join("bag");
+
+    let mut missing = args(bag.clone(), dir.path().join("missing"), &truth);
+    missing.left = Some("/stereo/lft/image_raw".to_owned());
+    let error = format!(
+        "{:#}",
+        calibrate_bag(&missing, &ProgressBar::hidden()).unwrap_err()
+    );
+    assert!(error.contains("no topic /stereo/lft/image_raw"), "{error}");
+    assert!(
+        error.contains("/stereo/left/image_raw") && error.contains("/stereo/right/image_raw"),
+        "the error lists the bag's image topics: {error}"
+    );
+
+    let mut wrong_size = args(bag, dir.path().join("wrong"), &truth);
+    wrong_size.size = format!("{}x{}", truth.board.cols + 1, truth.board.rows + 1);
+    let error = format!(
+        "{:#}",
+        calibrate_bag(&wrong_size, &ProgressBar::hidden()).unwrap_err()
+    );
+    assert!(error.contains("no complete board found"), "{error}");
+    assert!(error.contains("inner corners"), "{error}");
+    assert!(
+        !dir.path().join("wrong").exists(),
+        "nothing written on failure"
+    );
+}
