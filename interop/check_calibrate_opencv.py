@@ -1,0 +1,159 @@
+"""`stereocal calibrate` against ground truth, side by side with OpenCV's default pipeline.
+
+`stereocal synth --scene calibration` writes a stereo calibration session (about one
+frame in ten blurred, moving or partly out of view) with its ground truth. The session
+is calibrated twice:
+- `stereocal calibrate --json`;
+- OpenCV, as its tutorials do: `findChessboardCorners` + `cornerSubPix` (11x11 window)
+  on every frame, `calibrateCamera` per camera on the frames where the board was found,
+  `stereoCalibrate` (CALIB_FIX_INTRINSIC) on the frames found in both cameras.
+Both are compared with the truth: fx, fy, cx, cy errors, and right_from_left rotation
+(degrees) and translation (mm) errors. Exits non-zero when stereocal misses the
+acceptance bar (0.2 px, 0.05 degrees, 0.3 mm).
+
+Usage: .venv/bin/python interop/check_calibrate_opencv.py [--frames N] [--seed S]
+       [--model plumb_bob|rational_polynomial|equidistant] [--bin path/to/stereocal]
+"""
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+from rosbags.rosbag2 import Reader
+from rosbags.typesys import Stores, get_typestore
+
+REPO = Path(__file__).resolve().parent.parent
+TOPICS = ("/stereo/left/image_raw", "/stereo/right/image_raw")
+
+
+def default_binary():
+    release = REPO / "target" / "release" / "stereocal"
+    return release if release.exists() else REPO / "target" / "debug" / "stereocal"
+
+
+def read_images(bag):
+    """{topic: {(sec, nanosec): grey image}}."""
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    images = {t: {} for t in TOPICS}
+    with Reader(bag) as reader:
+        connections = [c for c in reader.connections if c.topic in TOPICS]
+        for connection, _, raw in reader.messages(connections=connections):
+            msg = ts.deserialize_cdr(raw, connection.msgtype)
+            img = np.frombuffer(msg.data, dtype=np.uint8).reshape(msg.height, msg.step)
+            img = img[:, : msg.width * (3 if msg.encoding == "rgb8" else 1)]
+            if msg.encoding == "rgb8":
+                img = cv2.cvtColor(img.reshape(msg.height, msg.width, 3), cv2.COLOR_RGB2GRAY)
+            stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec)
+            images[connection.topic][stamp] = np.ascontiguousarray(img)
+    return images
+
+
+def opencv_calibrate(images, cols, rows, square):
+    objp = np.zeros((cols * rows, 3), np.float32)
+    objp[:, :2] = np.mgrid[0:cols, 0:rows].T.reshape(-1, 2) * square
+    criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
+    corners = {}
+    size = None
+    for topic in TOPICS:
+        corners[topic] = {}
+        for stamp, img in images[topic].items():
+            size = (img.shape[1], img.shape[0])
+            found, c = cv2.findChessboardCorners(img, (cols, rows), None)
+            if found:
+                corners[topic][stamp] = cv2.cornerSubPix(img, c, (11, 11), (-1, -1), criteria)
+    results = {}
+    for topic in TOPICS:
+        views = list(corners[topic].values())
+        rms, k, d, _, _ = cv2.calibrateCamera([objp] * len(views), views, size, None, None)
+        results[topic] = (rms, k, d, len(views))
+    common = sorted(set(corners[TOPICS[0]]) & set(corners[TOPICS[1]]))
+    (_, k1, d1, _), (_, k2, d2, _) = results[TOPICS[0]], results[TOPICS[1]]
+    rms, *_, r, t, _, _ = cv2.stereoCalibrate(
+        [objp] * len(common),
+        [corners[TOPICS[0]][s] for s in common],
+        [corners[TOPICS[1]][s] for s in common],
+        k1, d1, k2, d2, size, flags=cv2.CALIB_FIX_INTRINSIC,
+    )
+    return results, (rms, r, t.ravel(), len(common))
+
+
+def rotation_error_degrees(r, r_true):
+    angle, _ = cv2.Rodrigues(r @ r_true.T)
+    return float(np.degrees(np.linalg.norm(angle)))
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--frames", type=int, default=25)
+    parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--model", default="plumb_bob")
+    parser.add_argument("--bin", type=Path, default=default_binary())
+    args = parser.parse_args()
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        subprocess.run(
+            [args.bin, "synth", "--scene", "calibration", "--out", tmp / "session",
+             "--frames", str(args.frames), "--seed", str(args.seed), "--model", args.model],
+            check=True, stderr=subprocess.DEVNULL,
+        )
+        truth = json.loads((tmp / "session" / "ground_truth.json").read_text())
+        board = truth["board"]
+        cols, rows, square = board["inner_corners_cols"], board["inner_corners_rows"], board["square_size_m"]
+        started = time.perf_counter()
+        ours = json.loads(subprocess.run(
+            [args.bin, "calibrate", "--bag", tmp / "session" / "bag", "--out", tmp / "out",
+             "--size", f"{cols}x{rows}", "--square", str(square), "--model", args.model, "--json"],
+            check=True, capture_output=True, text=True,
+        ).stdout)
+        ours_seconds = time.perf_counter() - started
+        started = time.perf_counter()
+        images = read_images(tmp / "session" / "bag")
+        cv_cameras, cv_stereo = opencv_calibrate(images, cols, rows, square)
+        cv_seconds = time.perf_counter() - started
+
+    bad = [f["index"] for f in truth["frames"] if f["kind"] != "clean"]
+    print(f"{args.frames} frames, model {args.model}, bad frames {bad}")
+    ok = True
+    for record, topic in zip(truth["cameras"], TOPICS):
+        k_true = np.array(record["camera_matrix_row_major"]).reshape(3, 3)
+        k_ours = np.array(ours["cameras"][record["name"]]["k"]).reshape(3, 3)
+        rms_cv, k_cv, _, views_cv = cv_cameras[topic]
+        for label, k, rms, views in (
+            ("stereocal", k_ours, ours["cameras"][record["name"]]["rms"],
+             ours["cameras"][record["name"]]["views_used"]),
+            ("opencv   ", k_cv, rms_cv, views_cv),
+        ):
+            errors = [k[0, 0] - k_true[0, 0], k[1, 1] - k_true[1, 1],
+                      k[0, 2] - k_true[0, 2], k[1, 2] - k_true[1, 2]]
+            print(f"{record['name']:5} {label} rms {rms:.4f} px, {views:2} views, "
+                  "fx fy cx cy error " + " ".join(f"{e:+.3f}" for e in errors) + " px")
+            if label == "stereocal" and max(abs(e) for e in errors) >= 0.2:
+                ok = False
+    rt = truth["extrinsics"]["right_from_left"]
+    r_true = np.array(rt["rotation_row_major"]).reshape(3, 3)
+    t_true = np.array(rt["translation_m"])
+    r_ours = np.array(ours["stereo"]["right_from_left"]["rotation"]).reshape(3, 3)
+    t_ours = np.array(ours["stereo"]["right_from_left"]["translation"])
+    rms_cv, r_cv, t_cv, pairs_cv = cv_stereo
+    for label, rms, r, t in (
+        ("stereocal", ours["stereo"]["rms"], r_ours, t_ours),
+        ("opencv   ", rms_cv, r_cv, t_cv),
+    ):
+        angle = rotation_error_degrees(r, r_true)
+        offset = np.linalg.norm(t - t_true) * 1e3
+        print(f"stereo {label} rms {rms:.4f} px, right_from_left error {angle:.4f} deg, {offset:.4f} mm")
+        if label == "stereocal" and (angle >= 0.05 or offset >= 0.3):
+            ok = False
+    print(f"wall time: stereocal calibrate {ours_seconds:.2f} s, OpenCV (read + detect + calibrate) {cv_seconds:.2f} s")
+    sys.exit(0 if ok else 1)
+
+
+if __name__ == "__main__":
+    main()
