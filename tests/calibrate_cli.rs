@@ -1,16 +1,21 @@
 //! `stereocal calibrate` on a synthetic stereo calibration session (1024x768, 25 frames,
 //! about one in ten bad): the intrinsics and `right_from_left` against ground truth, the
-//! bad frames left out and reported, the files it writes, its `--json` output, and
-//! clear errors for a missing topic and a wrong board size.
+//! bad frames left out and reported, the files it writes, its `--json` output; a mono
+//! camera; and clear errors for a missing topic, a wrong board size and too few views.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use indicatif::ProgressBar;
-use stereocal::cli::calibrate::{CalibrateArgs, calibrate_bag};
+use nalgebra::{Point2, Point3};
+use stereocal::calibration_stage::{
+    CalibrationStageError, CameraFrames, Frame, FrameCorners, calibrate_camera,
+};
+use stereocal::cli::calibrate::{CalibrateArgs, calibrate_bag, report_json};
 use stereocal::cli::synth::{ModelArg, SceneArg, SynthArgs};
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
+use stereocal_vision::calib::{CalibError, View};
 use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::synth::{FrameKind, GroundTruth};
 
@@ -242,4 +247,102 @@ fn missing_topic_and_wrong_board_size_give_clear_errors() {
         !dir.path().join("wrong").exists(),
         "nothing written on failure"
     );
+}
+
+#[test]
+fn mono_camera_is_written_under_its_name_without_rectification() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = synthesize(dir.path(), 3);
+    let out = dir.path().join("mono");
+    let mut mono = args(dir.path().join("bag"), out.clone(), &truth);
+    mono.left = None;
+    mono.right = None;
+    mono.topic = Some("/stereo/right/image_raw".to_owned());
+    mono.name = "front".to_owned();
+    let report = calibrate_bag(&mono, &ProgressBar::hidden()).unwrap();
+    assert!(report.outcome.stereo.is_none());
+    let [camera] = report.outcome.cameras.as_slice() else {
+        panic!("one camera expected, got {}", report.outcome.cameras.len());
+    };
+    assert_eq!(camera.used.len(), 3);
+    // Three views only: a sanity bound; the accuracy bar is held on the full session.
+    let expected = truth.cameras[1].camera_model().unwrap().intrinsics;
+    assert!((camera.calibration.camera.intrinsics.fx - expected.fx).abs() < 2.0);
+
+    let file = CameraInfoFile::read(out.join("front.yaml")).unwrap();
+    assert_eq!(file.camera_name, "front");
+    assert_eq!(file.info.r, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+    let k = file.info.k;
+    assert_eq!(
+        file.info.p,
+        [
+            k[0], k[1], k[2], 0.0, k[3], k[4], k[5], 0.0, k[6], k[7], k[8], 0.0
+        ]
+    );
+    assert!(!out.join("stereo.yaml").exists());
+
+    let value = report_json(&report);
+    assert!(value.get("stereo").is_none());
+    assert_eq!(value["cameras"]["front"]["views_used"], 3);
+    assert_eq!(value["cameras"].as_object().unwrap().len(), 1);
+}
+
+#[test]
+fn too_few_views_says_to_collect_more() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = synthesize(dir.path(), 2);
+    let board = &truth.board;
+    let frames = truth
+        .frames
+        .iter()
+        .map(|frame| {
+            let corners = &frame.views[0].corners;
+            let view = View {
+                points_in_target: corners
+                    .iter()
+                    .map(|c| {
+                        Point3::new(
+                            (c.id % board.cols) as f64 * board.square_size,
+                            (c.id / board.cols) as f64 * board.square_size,
+                            0.0,
+                        )
+                    })
+                    .collect(),
+                pixels: corners
+                    .iter()
+                    .map(|c| {
+                        let [x, y] = c.pixel.unwrap();
+                        Point2::new(x, y)
+                    })
+                    .collect(),
+            };
+            Frame {
+                stamp: stamp(frame),
+                corners: FrameCorners::Found(view),
+            }
+        })
+        .collect();
+    let camera = CameraFrames {
+        name: "left".to_owned(),
+        width: 1024,
+        height: 768,
+        frames,
+    };
+    let error = calibrate_camera(&camera, DistortionModel::PlumbBob).unwrap_err();
+    assert!(
+        matches!(
+            error,
+            CalibrationStageError::Mono {
+                source: CalibError::TooFewViews { usable: 2, .. },
+                ..
+            }
+        ),
+        "{error:?}"
+    );
+    let message = error.to_string();
+    assert!(
+        message.starts_with("camera left: 2 usable views"),
+        "{message}"
+    );
+    assert!(message.contains("collect more views"), "{message}");
 }
