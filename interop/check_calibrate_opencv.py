@@ -6,7 +6,9 @@ is calibrated twice:
 - `stereocal calibrate --json`;
 - OpenCV, as its tutorials do: `findChessboardCorners` + `cornerSubPix` (11x11 window)
   on every frame, `calibrateCamera` per camera on the frames where the board was found,
-  `stereoCalibrate` (CALIB_FIX_INTRINSIC) on the frames found in both cameras.
+  `stereoCalibrate` (CALIB_FIX_INTRINSIC) on the frames found in both cameras
+  (CALIB_RATIONAL_MODEL for rational_polynomial; `cv2.fisheye.calibrate` and
+  `cv2.fisheye.stereoCalibrate` for equidistant).
 Both are compared with the truth: fx, fy, cx, cy errors, and right_from_left rotation
 (degrees) and translation (mm) errors. Exits non-zero when stereocal misses the
 acceptance bar (0.2 px, 0.05 degrees, 0.3 mm).
@@ -54,7 +56,7 @@ def read_images(bag):
     return images
 
 
-def opencv_calibrate(images, cols, rows, square):
+def opencv_calibrate(images, cols, rows, square, model):
     objp = np.zeros((cols * rows, 3), np.float32)
     objp[:, :2] = np.mgrid[0:cols, 0:rows].T.reshape(-1, 2) * square
     criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_MAX_ITER, 30, 0.001)
@@ -67,20 +69,38 @@ def opencv_calibrate(images, cols, rows, square):
             found, c = cv2.findChessboardCorners(img, (cols, rows), None)
             if found:
                 corners[topic][stamp] = cv2.cornerSubPix(img, c, (11, 11), (-1, -1), criteria)
+    fisheye = model == "equidistant"
+    flags = cv2.CALIB_RATIONAL_MODEL if model == "rational_polynomial" else 0
+    fisheye_objp = objp.reshape(-1, 1, 3).astype(np.float64)
     results = {}
     for topic in TOPICS:
         views = list(corners[topic].values())
-        rms, k, d, _, _ = cv2.calibrateCamera([objp] * len(views), views, size, None, None)
+        if fisheye:
+            rms, k, d, _, _ = cv2.fisheye.calibrate(
+                [fisheye_objp] * len(views), [v.astype(np.float64) for v in views], size,
+                None, None, flags=cv2.fisheye.CALIB_RECOMPUTE_EXTRINSIC | cv2.fisheye.CALIB_FIX_SKEW,
+            )
+        else:
+            rms, k, d, _, _ = cv2.calibrateCamera(
+                [objp] * len(views), views, size, None, None, flags=flags
+            )
         results[topic] = (rms, k, d, len(views))
     common = sorted(set(corners[TOPICS[0]]) & set(corners[TOPICS[1]]))
     (_, k1, d1, _), (_, k2, d2, _) = results[TOPICS[0]], results[TOPICS[1]]
-    rms, *_, r, t, _, _ = cv2.stereoCalibrate(
-        [objp] * len(common),
-        [corners[TOPICS[0]][s] for s in common],
-        [corners[TOPICS[1]][s] for s in common],
-        k1, d1, k2, d2, size, flags=cv2.CALIB_FIX_INTRINSIC,
-    )
-    return results, (rms, r, t.ravel(), len(common))
+    left = [corners[TOPICS[0]][s] for s in common]
+    right = [corners[TOPICS[1]][s] for s in common]
+    if fisheye:
+        rms, *_, r, t = cv2.fisheye.stereoCalibrate(
+            [fisheye_objp] * len(common),
+            [v.astype(np.float64) for v in left], [v.astype(np.float64) for v in right],
+            k1, d1, k2, d2, size, flags=cv2.fisheye.CALIB_FIX_INTRINSIC,
+        )[:7]
+    else:
+        rms, *_, r, t, _, _ = cv2.stereoCalibrate(
+            [objp] * len(common), left, right, k1, d1, k2, d2, size,
+            flags=cv2.CALIB_FIX_INTRINSIC,
+        )
+    return results, (rms, r, np.asarray(t).ravel(), len(common))
 
 
 def rotation_error_degrees(r, r_true):
@@ -107,15 +127,19 @@ def main():
         board = truth["board"]
         cols, rows, square = board["inner_corners_cols"], board["inner_corners_rows"], board["square_size_m"]
         started = time.perf_counter()
-        ours = json.loads(subprocess.run(
+        run = subprocess.run(
             [args.bin, "calibrate", "--bag", tmp / "session" / "bag", "--out", tmp / "out",
              "--size", f"{cols}x{rows}", "--square", str(square), "--model", args.model, "--json"],
-            check=True, capture_output=True, text=True,
-        ).stdout)
+            capture_output=True, text=True,
+        )
+        if run.returncode != 0:
+            print(f"stereocal calibrate failed:\n{run.stderr}", file=sys.stderr)
+            sys.exit(1)
+        ours = json.loads(run.stdout)
         ours_seconds = time.perf_counter() - started
         started = time.perf_counter()
         images = read_images(tmp / "session" / "bag")
-        cv_cameras, cv_stereo = opencv_calibrate(images, cols, rows, square)
+        cv_cameras, cv_stereo = opencv_calibrate(images, cols, rows, square, args.model)
         cv_seconds = time.perf_counter() - started
 
     bad = [f["index"] for f in truth["frames"] if f["kind"] != "clean"]

@@ -17,7 +17,7 @@ use stereocal_vision::calib::{
     CalibError, MonoCalibration, MonoOptions, RejectedView, StereoCalibration, StereoOptions,
     StereoView, View, calibrate_mono, calibrate_stereo,
 };
-use stereocal_vision::camera::DistortionModel;
+use stereocal_vision::camera::{DistortionModel, NewCameraMatrixError};
 use stereocal_vision::rectify::{
     StereoRectification, StereoRectifyError, StereoRectifyOptions, stereo_rectify,
 };
@@ -117,12 +117,12 @@ pub enum CalibrationStageError {
         frames: usize,
     },
     /// A camera's calibration failed.
-    #[error("camera {camera}: {source}")]
+    #[error("camera {camera}: {error}")]
     Mono {
         /// The camera.
         camera: String,
         /// Why.
-        source: CalibError,
+        error: CalibError,
     },
     /// No frame stamp has the board found and kept in both cameras.
     #[error(
@@ -137,6 +137,17 @@ pub enum CalibrationStageError {
     /// The stereo calibration failed.
     #[error("stereo: {0}")]
     Stereo(CalibError),
+    /// A camera's calibrated distortion cannot be inverted out to the image border, so
+    /// the rectification cannot frame the image.
+    #[error(
+        "stereo rectification: {error}: the calibrated distortion of the {camera} camera does not hold out to the image border; collect views with the board near the image corners and edges, or calibrate with fewer distortion coefficients (--model plumb_bob)"
+    )]
+    LensBeyondViews {
+        /// "left" or "right".
+        camera: &'static str,
+        /// What the rectification found.
+        error: NewCameraMatrixError,
+    },
     /// The stereo rectification failed.
     #[error("stereo rectification: {0}")]
     Rectify(StereoRectifyError),
@@ -175,9 +186,9 @@ pub fn calibrate_camera(
         camera.height,
         &MonoOptions::new(model),
     )
-    .map_err(|source| CalibrationStageError::Mono {
+    .map_err(|error| CalibrationStageError::Mono {
         camera: camera.name.clone(),
-        source,
+        error,
     })?;
     rejected.extend(rejected_frames(&calibration.rejected, &found));
     rejected.sort_by_key(|r| r.stamp);
@@ -246,7 +257,13 @@ pub fn calibrate_pair(
         &calibration.right_from_left,
         &StereoRectifyOptions::default(),
     )
-    .map_err(CalibrationStageError::Rectify)?;
+    .map_err(|e| match e {
+        StereoRectifyError::Camera { camera, source } => CalibrationStageError::LensBeyondViews {
+            camera,
+            error: source,
+        },
+        other => CalibrationStageError::Rectify(other),
+    })?;
     left_result.info = rectified_info(
         &left_result,
         rectification.left_rectified_from_original.into_inner(),

@@ -333,7 +333,7 @@ fn too_few_views_says_to_collect_more() {
         matches!(
             error,
             CalibrationStageError::Mono {
-                source: CalibError::TooFewViews { usable: 2, .. },
+                error: CalibError::TooFewViews { usable: 2, .. },
                 ..
             }
         ),
