@@ -14,6 +14,7 @@ Both are compared with the truth: fx, fy, cx, cy errors, and right_from_left rot
 acceptance bar (0.2 px, 0.05 degrees, 0.3 mm).
 
 Usage: .venv/bin/python interop/check_calibrate_opencv.py [--frames N] [--seed S]
+       [--width W --height H]
        [--model plumb_bob|rational_polynomial|equidistant] [--bin path/to/stereocal]
 """
 
@@ -113,6 +114,8 @@ def main():
     parser.add_argument("--frames", type=int, default=25)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--model", default="plumb_bob")
+    parser.add_argument("--width", type=int, default=1024)
+    parser.add_argument("--height", type=int, default=768)
     parser.add_argument("--bin", type=Path, default=default_binary())
     args = parser.parse_args()
 
@@ -120,7 +123,8 @@ def main():
         tmp = Path(tmp)
         subprocess.run(
             [args.bin, "synth", "--scene", "calibration", "--out", tmp / "session",
-             "--frames", str(args.frames), "--seed", str(args.seed), "--model", args.model],
+             "--frames", str(args.frames), "--seed", str(args.seed), "--model", args.model,
+             "--width", str(args.width), "--height", str(args.height)],
             check=True, stderr=subprocess.DEVNULL,
         )
         truth = json.loads((tmp / "session" / "ground_truth.json").read_text())
@@ -143,7 +147,7 @@ def main():
         cv_seconds = time.perf_counter() - started
 
     bad = [f["index"] for f in truth["frames"] if f["kind"] != "clean"]
-    print(f"{args.frames} frames, model {args.model}, bad frames {bad}")
+    print(f"{args.frames} frames of {args.width}x{args.height}, model {args.model}, bad frames {bad}")
     ok = True
     for record, topic in zip(truth["cameras"], TOPICS):
         k_true = np.array(record["camera_matrix_row_major"]).reshape(3, 3)
