@@ -487,8 +487,9 @@ fn camera_json(camera: &CameraResult) -> serde_json::Value {
 }
 
 /// The JSON object `--json` prints: per camera RMS, K (row-major), D, model, size,
-/// views used and rejected (stamp, reason); for a pair, the stereo RMS,
-/// `right_from_left` (row-major rotation, translation in metres) and epipolar RMS.
+/// views used and rejected (stamp as `{"sec", "nanosec"}`, reason); for a pair, the
+/// stereo RMS, `right_from_left` (row-major rotation, translation in metres), epipolar
+/// RMS, and the pairs used and rejected.
 pub fn report_json(report: &CalibrateReport) -> serde_json::Value {
     let cameras: serde_json::Map<String, serde_json::Value> = report
         .outcome
