@@ -7,9 +7,12 @@ use std::time::Duration;
 
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
+use stereocal_vision::camera::DistortionModel;
 
+use crate::cli::calibrate::{CalibrateArgs, calibrate_bag};
 use crate::cli::rectify::{BagRectifyOptions, rectify_bag};
 use crate::cli::synth::{ModelArg, SceneArg, SynthArgs};
+use crate::convert::calibrated_camera_from_info;
 use crate::replay::{NodeReplay, ReplayOutcome, replay_through_rectify_nodes};
 use crate::row_alignment::RowAlignment;
 use crate::stereo_scene::{LEFT, RIGHT, StereoScene, identical_images, read_rectified};
@@ -84,6 +87,8 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     );
     print_alignment(&offline_alignment, offline_frames);
 
+    calibration_session(&out)?;
+
     if args.offline_only {
         return Ok(());
     }
@@ -129,6 +134,104 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
             outcome.total_sent()
         );
     }
+    Ok(())
+}
+
+/// A stereo calibration session with bad frames, synthesized, calibrated with
+/// `stereocal calibrate`, and rectified with the result: the errors against the
+/// session's ground truth.
+fn calibration_session(out: &Path) -> anyhow::Result<()> {
+    let dir = out.join("calibration");
+    println!("\ncalibration: a synthetic stereo session, calibrated and rectified with the result");
+    crate::cli::synth::run(&SynthArgs {
+        scene: SceneArg::Calibration,
+        out: dir.clone(),
+        seed: 1,
+        frames: Some(25),
+        width: 1024,
+        height: 768,
+        model: ModelArg::PlumbBob,
+        bad_frames: None,
+        rgb: false,
+        vertical: false,
+    })?;
+    let mut scene = StereoScene::open(&dir)?;
+    let board = scene.truth.board;
+    let bad = scene.truth.frames.len() - scene.clean_frames();
+    let report = calibrate_bag(
+        &CalibrateArgs {
+            bag: scene.bag.clone(),
+            out: dir.join("result"),
+            pattern: "chessboard".into(),
+            size: format!("{}x{}", board.cols, board.rows),
+            square: board.square_size.to_string(),
+            topic: None,
+            left: Some(format!("{LEFT}/image_raw")),
+            right: Some(format!("{RIGHT}/image_raw")),
+            model: DistortionModel::PlumbBob,
+            name: "camera".into(),
+            json: false,
+        },
+        &ProgressBar::hidden(),
+    )?;
+    println!(
+        "  {} stereo frames ({bad} bad: blurred, moving or partly out of view), calibrated in {:.2} s",
+        scene.truth.frames.len(),
+        report.elapsed.as_secs_f64()
+    );
+    let [left, right] = report.outcome.cameras.as_slice() else {
+        bail!("the calibration of a stereo session gave no pair");
+    };
+    for (result, truth) in [left, right].into_iter().zip(&scene.truth.cameras) {
+        let camera = &result.calibration.camera.intrinsics;
+        let true_camera = truth
+            .camera_model()
+            .context("the ground truth has an unknown camera model")?
+            .intrinsics;
+        println!(
+            "  {:<5} rms {:.3} px, {} views used, {} left out; error fx {:+.3} fy {:+.3} cx {:+.3} cy {:+.3} px",
+            result.name,
+            result.calibration.rms,
+            result.used.len(),
+            result.rejected.len(),
+            camera.fx - true_camera.fx,
+            camera.fy - true_camera.fy,
+            camera.cx - true_camera.cx,
+            camera.cy - true_camera.cy
+        );
+    }
+    if let (Some(stereo), Some(truth)) = (
+        &report.outcome.stereo,
+        scene.truth.extrinsics.right_from_left.as_ref(),
+    ) {
+        let error = truth.isometry().inverse() * stereo.calibration.right_from_left;
+        println!(
+            "  right_from_left error {:.4} deg, {:.3} mm (baseline {:.1} mm)",
+            error.rotation.angle().to_degrees(),
+            error.translation.vector.norm() * 1e3,
+            stereo.calibration.right_from_left.translation.vector.norm() * 1e3
+        );
+    }
+
+    // Rectify the session with the calibration and measure its rows.
+    scene.left = calibrated_camera_from_info(&left.info)?;
+    scene.right = calibrated_camera_from_info(&right.info)?;
+    let rectified_bag = dir.join("rectified");
+    rectify_bag(
+        &scene.bag,
+        &rectified_bag,
+        &BagRectifyOptions {
+            camera_infos: vec![
+                (format!("{LEFT}/camera_info"), left.info.clone()),
+                (format!("{RIGHT}/camera_info"), right.info.clone()),
+            ],
+            overwrite: true,
+            ..BagRectifyOptions::default()
+        },
+        &ProgressBar::hidden(),
+    )?;
+    let (alignment, frames) = scene.row_alignment(&read_rectified(&rectified_bag)?);
+    print_alignment(&alignment, frames);
     Ok(())
 }
 
