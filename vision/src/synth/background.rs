@@ -55,7 +55,7 @@ impl Background {
     /// Colour (each channel in `[0, 1]`) seen along `direction` (background frame, any
     /// length), bilinearly interpolated between texels.
     pub(crate) fn sample(&self, direction: &Vector3<f64>) -> [f32; 3] {
-        let rho = direction.x.hypot(direction.y);
+        let rho = (direction.x * direction.x + direction.y * direction.y).sqrt();
         let theta = rho.atan2(direction.z);
         let scale = if rho > 0.0 { theta / rho } else { 0.0 };
         let half = 0.5 * self.size as f64;

@@ -123,12 +123,25 @@ impl Chessboard {
         if !(x >= lo.x && x <= hi.x && y >= lo.y && y <= hi.y) {
             return Region::Off;
         }
-        let i = (x / self.square_size).floor();
-        let j = (y / self.square_size).floor();
-        if i < -1.0 || j < -1.0 || i >= self.cols as f64 || j >= self.rows as f64 {
+        // Within the extent the square indices are small, so they fit an i64.
+        let i = floor(x / self.square_size);
+        let j = floor(y / self.square_size);
+        if i < -1 || j < -1 || i >= self.cols as i64 || j >= self.rows as i64 {
             return Region::Margin;
         }
         Region::Square(i as i32, j as i32)
+    }
+}
+
+/// The largest integer not above `value` (which must fit an i64): truncation, one
+/// less for negative non-integers; cheaper than `f64::floor` where the target has no
+/// rounding instruction.
+fn floor(value: f64) -> i64 {
+    let truncated = value as i64;
+    if (truncated as f64) > value {
+        truncated - 1
+    } else {
+        truncated
     }
 }
 

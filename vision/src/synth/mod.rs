@@ -3,7 +3,8 @@
 //! cluttered background), stereo rigs and robot-arm hand-eye sessions with bad frames
 //! on request, and a saddle-point fit that measures rendered corners.
 //!
-//! Everything is seeded (ChaCha8): the same spec gives the same bytes.
+//! Everything is seeded (ChaCha8 for the scene, SplitMix64 per image row for sensor
+//! noise): the same spec gives the same bytes.
 
 mod background;
 mod board;

@@ -1,8 +1,6 @@
 //! Photometric effects applied to a rendered radiance image: defocus blur,
 //! vignetting, sensor noise and 8-bit quantization.
 
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 /// How a shot is lit and exposed, and how the optics and sensor degrade it.
@@ -89,21 +87,28 @@ impl Radiance {
         let clamp = |i: isize, n: usize| i.clamp(0, n as isize - 1) as usize;
 
         let mut horizontal = vec![0.0f32; self.data.len()];
+        let pad = radius as usize * channels;
         horizontal
             .par_chunks_mut(row_len)
             .zip(self.data.par_chunks(row_len))
-            .for_each(|(out, row)| {
-                for x in 0..width {
-                    for c in 0..channels {
-                        let mut sum = 0.0;
-                        for (k, weight) in kernel.iter().enumerate() {
-                            let sx = clamp(x as isize + k as isize - radius, width);
-                            sum += weight * row[sx * channels + c];
-                        }
-                        out[x * channels + c] = sum;
+            .for_each_init(
+                || vec![0.0f32; row_len + 2 * pad],
+                |padded, (out, row)| {
+                    // The row with its border pixels repeated, so the kernel never
+                    // needs clamping.
+                    for (x, slot) in padded.chunks_mut(channels).enumerate() {
+                        let sx = clamp(x as isize - radius, width);
+                        slot.copy_from_slice(&row[sx * channels..(sx + 1) * channels]);
                     }
-                }
-            });
+                    out.fill(0.0);
+                    for (k, weight) in kernel.iter().enumerate() {
+                        let shifted = &padded[k * channels..k * channels + row_len];
+                        for (o, s) in out.iter_mut().zip(shifted) {
+                            *o += weight * s;
+                        }
+                    }
+                },
+            );
         self.data
             .par_chunks_mut(row_len)
             .enumerate()
@@ -154,11 +159,10 @@ impl Radiance {
             .par_chunks_mut(row_len)
             .enumerate()
             .for_each(|(y, row)| {
-                let mut rng = ChaCha8Rng::seed_from_u64(seed);
-                rng.set_stream(y as u64);
+                let mut normals = Normals::new(seed, y as u64);
                 for value in row.iter_mut() {
                     let sigma = (read_variance + shot_variance * value.max(0.0)).sqrt();
-                    *value += sigma * standard_normal(&mut rng);
+                    *value += sigma * normals.next_normal();
                 }
             });
     }
@@ -167,16 +171,62 @@ impl Radiance {
     pub(crate) fn quantize(&self) -> Vec<u8> {
         self.data
             .par_iter()
-            .map(|v| (v * 255.0).round().clamp(0.0, 255.0) as u8)
+            .map(|&v| {
+                // Adding one half and truncating rounds a non-negative level to the
+                // nearest (NaN truncates to 0); far cheaper than `round` where the
+                // target has no rounding instruction.
+                let level = v * 255.0;
+                if level >= 255.0 {
+                    255
+                } else if level > 0.0 {
+                    (level + 0.5) as u8
+                } else {
+                    0
+                }
+            })
             .collect()
     }
 }
 
-/// A standard normal sample (Box-Muller).
-fn standard_normal(rng: &mut ChaCha8Rng) -> f32 {
-    let u1: f64 = 1.0 - rng.random::<f64>();
-    let u2: f64 = rng.random();
-    ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32
+/// One step of SplitMix64: advances `state` and returns a well-mixed 64-bit value.
+fn split_mix(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+/// Standard normal samples of one image row: a SplitMix64 stream started from the
+/// row's own seed (the shot's seed and the row index, mixed), turned into pairs of
+/// normals by the Box-Muller transform on the two 32-bit halves of each draw.
+struct Normals {
+    state: u64,
+    spare: Option<f32>,
+}
+
+impl Normals {
+    fn new(seed: u64, row: u64) -> Self {
+        let mut mix = seed;
+        let row_seed = split_mix(&mut mix) ^ row.wrapping_mul(0xd605_bbb5_8c8a_bbd1);
+        let mut state = row_seed;
+        split_mix(&mut state);
+        Self { state, spare: None }
+    }
+
+    fn next_normal(&mut self) -> f32 {
+        if let Some(spare) = self.spare.take() {
+            return spare;
+        }
+        let bits = split_mix(&mut self.state);
+        // u1 in (0, 1] (so its logarithm is finite), u2 in [0, 1).
+        let u1 = ((bits >> 32) as f32 + 1.0) * (1.0 / 4_294_967_296.0);
+        let u2 = (bits & 0xffff_ffff) as f32 * (1.0 / 4_294_967_296.0);
+        let radius = (-2.0 * u1.ln()).sqrt();
+        let (sin, cos) = (std::f32::consts::TAU * u2).sin_cos();
+        self.spare = Some(radius * sin);
+        radius * cos
+    }
 }
 
 #[cfg(test)]
@@ -217,6 +267,9 @@ mod tests {
         let mut b = flat(0.5);
         b.add_noise(2.0, 4.0, 7);
         assert_eq!(a.data, b.data);
+        let mut c = flat(0.5);
+        c.add_noise(2.0, 4.0, 8);
+        assert_ne!(a.data, c.data);
         let n = a.data.len() as f32;
         let mean = a.data.iter().sum::<f32>() / n;
         let variance = a.data.iter().map(|v| (v - mean).powi(2)).sum::<f32>() / n;
@@ -226,6 +279,41 @@ mod tests {
             (variance / expected - 1.0).abs() < 0.1,
             "{variance} vs {expected}"
         );
+    }
+
+    /// Over many samples the noise is Gaussian (its skewness, kurtosis and tails are
+    /// those of a normal distribution) and neighbouring pixels, within a row and
+    /// between rows, are uncorrelated.
+    #[test]
+    fn noise_is_gaussian_and_uncorrelated() {
+        let (width, height) = (512, 512);
+        let mut image = Radiance {
+            width,
+            height,
+            channels: 1,
+            data: vec![0.0; width * height],
+        };
+        image.add_noise(255.0, 0.0, 11);
+        let z = &image.data;
+        let n = z.len() as f64;
+        let moment = |k: i32| z.iter().map(|&v| f64::from(v).powi(k)).sum::<f64>() / n;
+        let (mean, variance) = (moment(1), moment(2));
+        assert!(mean.abs() < 0.01, "mean {mean}");
+        assert!((variance - 1.0).abs() < 0.01, "variance {variance}");
+        assert!(moment(3).abs() < 0.02, "skewness {}", moment(3));
+        assert!((moment(4) - 3.0).abs() < 0.05, "kurtosis {}", moment(4));
+        let beyond_3 = z.iter().filter(|v| v.abs() > 3.0).count() as f64 / n;
+        assert!((beyond_3 / 0.0027 - 1.0).abs() < 0.15, "{beyond_3}");
+        let correlation = |offset: usize| {
+            let pairs = z.len() - offset;
+            (0..pairs)
+                .map(|i| f64::from(z[i]) * f64::from(z[i + offset]))
+                .sum::<f64>()
+                / pairs as f64
+        };
+        for offset in [1, 2, width, width + 1] {
+            assert!(correlation(offset).abs() < 0.01, "offset {offset}");
+        }
     }
 
     #[test]

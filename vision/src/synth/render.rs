@@ -15,6 +15,8 @@ use crate::image::{Image, Samples};
 
 /// Sub-renders averaged over the exposure of a motion-blurred shot.
 const MOTION_STEPS: usize = 10;
+/// Image rows rendered together, sharing the scene hits of their corner rows.
+const BAND_ROWS: usize = 16;
 
 /// Pixel format of rendered images.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -61,8 +63,9 @@ pub struct Renderer {
     camera: CameraModel,
     rays: RayGrid,
     board: Chessboard,
-    background: Arc<Background>,
-    background_from_camera: UnitQuaternion<f64>,
+    /// Row-major colour of the background seen through each pixel's centre, at unit
+    /// brightness: the background is fixed to the camera, so every frame shares it.
+    backdrop: Vec<[f32; 3]>,
 }
 
 /// Where a ray meets the scene.
@@ -136,12 +139,26 @@ impl Renderer {
         background_from_camera: UnitQuaternion<f64>,
     ) -> Self {
         let rays = RayGrid::new(&camera);
+        let width = rays.width();
+        let mut backdrop = vec![[0.0f32; 3]; width * rays.height()];
+        backdrop
+            .par_chunks_mut(width)
+            .enumerate()
+            .for_each(|(v, row)| {
+                let (top, bottom) = (rays.corner_row(v), rays.corner_row(v + 1));
+                for (u, colour) in row.iter_mut().enumerate() {
+                    let corners = [top[u], top[u + 1], bottom[u], bottom[u + 1]];
+                    let centre = bilinear(&corners, 0.5, 0.5);
+                    if !centre.x.is_nan() {
+                        *colour = background.sample(&(background_from_camera * centre));
+                    }
+                }
+            });
         Self {
             camera,
             rays,
             board,
-            background,
-            background_from_camera,
+            backdrop,
         }
     }
 
@@ -224,6 +241,8 @@ impl Renderer {
     /// area on a Fibonacci lattice. Unlike a square grid, the lattice has no direction
     /// along which its samples line up, so the coverage of an edge of any direction
     /// is resolved finely and a straight edge is not pulled towards a grid line.
+    /// Rows are rendered in bands, each finding where its corner rays meet the scene
+    /// once for all its pixels.
     fn radiance(
         &self,
         camera_from_target: &Isometry3<f64>,
@@ -232,80 +251,91 @@ impl Renderer {
         photometry: &Photometry,
     ) -> Radiance {
         let width = self.rays.width();
+        let stride = width + 1;
         let plane = Plane::new(camera_from_target);
         let mut radiance = self.blank(channels);
         let samples = fibonacci_lattice(supersampling * supersampling);
         let weight = 1.0 / samples.len() as f32;
         radiance
             .data
-            .par_chunks_mut(width * channels)
+            .par_chunks_mut(BAND_ROWS * width * channels)
             .enumerate()
-            .for_each(|(v, row)| {
-                let corner_row = |cv: usize| -> Vec<Option<Hit>> {
-                    (0..=width)
-                        .map(|cu| plane.hit(&self.board, &self.rays.corner(cu, cv)))
-                        .collect()
-                };
-                let (top, bottom) = (corner_row(v), corner_row(v + 1));
-                for (u, pixel) in row.chunks_mut(channels).enumerate() {
-                    let hits = [top[u], top[u + 1], bottom[u], bottom[u + 1]];
-                    let Some([h00, h10, h01, h11]) = all_some(hits) else {
-                        continue;
-                    };
-                    let rays = [
-                        self.rays.corner(u, v),
-                        self.rays.corner(u + 1, v),
-                        self.rays.corner(u, v + 1),
-                        self.rays.corner(u + 1, v + 1),
-                    ];
-                    let uniform = h00.region == h10.region
-                        && h00.region == h01.region
-                        && h00.region == h11.region;
-                    let colour = if uniform {
-                        match h00.region {
-                            Region::Off => self.background(&bilinear(&rays, 0.5, 0.5), photometry),
-                            region => {
-                                let x = 0.25 * (h00.x + h10.x + h01.x + h11.x);
-                                let y = 0.25 * (h00.y + h10.y + h01.y + h11.y);
-                                let value = self.board_radiance(region, x, y, photometry);
-                                [value; 3]
+            .for_each(|(band, rows)| {
+                let first = band * BAND_ROWS;
+                let band_rows = rows.len() / (width * channels);
+                let hits: Vec<Option<Hit>> = (first..=first + band_rows)
+                    .flat_map(|cv| self.rays.corner_row(cv))
+                    .map(|ray| plane.hit(&self.board, ray))
+                    .collect();
+                for (r, row) in rows.chunks_mut(width * channels).enumerate() {
+                    let v = first + r;
+                    let top = &hits[r * stride..(r + 1) * stride];
+                    let bottom = &hits[(r + 1) * stride..(r + 2) * stride];
+                    let backdrop = &self.backdrop[v * width..(v + 1) * width];
+                    for (u, pixel) in row.chunks_mut(channels).enumerate() {
+                        let hits = [top[u], top[u + 1], bottom[u], bottom[u + 1]];
+                        let Some([h00, h10, h01, h11]) = all_some(hits) else {
+                            continue;
+                        };
+                        let uniform = h00.region == h10.region
+                            && h00.region == h01.region
+                            && h00.region == h11.region;
+                        let colour = if uniform {
+                            match h00.region {
+                                Region::Off => {
+                                    backdrop[u].map(|c| c * photometry.background_brightness)
+                                }
+                                region => {
+                                    let x = 0.25 * (h00.x + h10.x + h01.x + h11.x);
+                                    let y = 0.25 * (h00.y + h10.y + h01.y + h11.y);
+                                    [self.board_radiance(region, x, y, photometry); 3]
+                                }
                             }
+                        } else {
+                            let rays = [
+                                self.rays.corner(u, v),
+                                self.rays.corner(u + 1, v),
+                                self.rays.corner(u, v + 1),
+                                self.rays.corner(u + 1, v + 1),
+                            ];
+                            // The background is point-sampled at pixel centres, here
+                            // as in the pixels that see only the background.
+                            let off = backdrop[u].map(|c| c * photometry.background_brightness);
+                            let mut sum = [0.0f32; 3];
+                            for &(fu, fv) in &samples {
+                                let ray = bilinear(&rays, fu, fv);
+                                let sample = self.shade(&plane, &ray, off, photometry);
+                                sum.iter_mut().zip(sample).for_each(|(s, c)| *s += c);
+                            }
+                            sum.map(|s| s * weight)
+                        };
+                        if channels == 1 {
+                            pixel[0] = luma(&colour);
+                        } else {
+                            pixel.copy_from_slice(&colour);
                         }
-                    } else {
-                        let mut sum = [0.0f32; 3];
-                        for &(fu, fv) in &samples {
-                            let ray = bilinear(&rays, fu, fv);
-                            let sample = self.shade(&plane, &ray, photometry);
-                            sum.iter_mut().zip(sample).for_each(|(s, c)| *s += c);
-                        }
-                        sum.map(|s| s * weight)
-                    };
-                    if channels == 1 {
-                        pixel[0] = luma(&colour);
-                    } else {
-                        pixel.copy_from_slice(&colour);
                     }
                 }
             });
         radiance
     }
 
-    fn shade(&self, plane: &Plane, ray: &Vector3<f64>, photometry: &Photometry) -> [f32; 3] {
+    /// What one sample ray sees: the board, or `off` (the pixel's background).
+    fn shade(
+        &self,
+        plane: &Plane,
+        ray: &Vector3<f64>,
+        off: [f32; 3],
+        photometry: &Photometry,
+    ) -> [f32; 3] {
         match plane.hit(&self.board, ray) {
             None => [0.0; 3],
             Some(Hit {
                 region: Region::Off,
                 ..
-            }) => self.background(ray, photometry),
+            }) => off,
             Some(hit) => [self.board_radiance(hit.region, hit.x, hit.y, photometry); 3],
         }
-    }
-
-    fn background(&self, ray: &Vector3<f64>, photometry: &Photometry) -> [f32; 3] {
-        let direction = self.background_from_camera * ray;
-        self.background
-            .sample(&direction)
-            .map(|c| c * photometry.background_brightness)
     }
 
     /// Reflectance times the (uneven) light at target position `(x, y)`.
