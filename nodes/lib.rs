@@ -6,6 +6,7 @@ pub mod bag;
 pub mod calibration_stage;
 pub mod cli;
 pub mod convert;
+pub mod measure;
 pub mod rectify_node;
 pub mod rectify_stage;
 pub mod replay;

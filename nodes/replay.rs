@@ -17,6 +17,7 @@ use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 
 use crate::bag::{BagReader, TopicFilter};
+use crate::measure::{Percentiles, percentiles};
 use crate::runtime::qos;
 use crate::runtime::transport::{DiscoveryRange, TransportConfig};
 
@@ -60,13 +61,10 @@ impl ReplayOutcome {
         self.sent.values().sum()
     }
 
-    /// The latency below which a fraction `q` (0..=1) of frames arrived.
-    pub fn latency_quantile(&self, q: f64) -> Option<Duration> {
-        let mut sorted = self.latencies.clone();
-        sorted.sort();
-        let last = sorted.len().checked_sub(1)?;
-        let rank = ((q.clamp(0.0, 1.0) * last as f64).round() as usize).min(last);
-        sorted.get(rank).copied()
+    /// Percentiles of the latency from publishing a raw image to receiving it
+    /// rectified; `None` when nothing arrived.
+    pub fn latency(&self) -> Option<Percentiles> {
+        percentiles(&self.latencies)
     }
 }
 

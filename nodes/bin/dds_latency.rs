@@ -21,13 +21,14 @@ use std::{
 };
 
 use anyhow::{Context as _, anyhow, bail};
-use clap::{Parser, ValueEnum};
+use clap::Parser;
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions,
     dds::rustdds::mio1::{Events, Interest, Poll, Token},
     qos::{Durability, History, QosProfile, Reliability, WhenFull},
 };
 use serde::{Deserialize, Serialize};
+use stereocal::measure::{ImageSize, Percentiles, Reliability as Rel, percentiles};
 use stereocal::runtime::transport::{DiscoveryRange, TransportConfig};
 
 /// Topic the measurement runs on.
@@ -93,60 +94,6 @@ struct Args {
     /// Run as the subscriber (started by the publisher).
     #[arg(long, hide = true)]
     subscriber: bool,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum Rel {
-    Reliable,
-    BestEffort,
-}
-
-/// One image geometry and encoding to measure.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct ImageSize {
-    width: u32,
-    height: u32,
-    channels: u32,
-}
-
-impl ImageSize {
-    fn encoding(&self) -> &'static str {
-        if self.channels == 3 { "rgb8" } else { "mono8" }
-    }
-
-    fn data_len(&self) -> usize {
-        self.width as usize * self.height as usize * self.channels as usize
-    }
-}
-
-impl std::str::FromStr for ImageSize {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let expected = || format!("'{s}': expected WIDTHxHEIGHT:ENCODING, e.g. 640x480:mono8");
-        let (dims, encoding) = s.split_once(':').ok_or_else(expected)?;
-        let (w, h) = dims.split_once('x').ok_or_else(expected)?;
-        let width: u32 = w.trim().parse().map_err(|_| expected())?;
-        let height: u32 = h.trim().parse().map_err(|_| expected())?;
-        let channels = match encoding.trim() {
-            "mono8" => 1,
-            "rgb8" => 3,
-            other => return Err(format!("'{other}': encoding must be mono8 or rgb8")),
-        };
-        if width == 0 || height == 0 {
-            return Err(expected());
-        }
-        Ok(Self {
-            width,
-            height,
-            channels,
-        })
-    }
-}
-
-impl std::fmt::Display for ImageSize {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}x{} {}", self.width, self.height, self.encoding())
-    }
 }
 
 /// builtin_interfaces/msg/Time.
@@ -533,32 +480,6 @@ fn publish<D: Pixels>(
     Ok(sent)
 }
 
-/// Latency percentiles of one size, in milliseconds.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Percentiles {
-    p50: f64,
-    p90: f64,
-    p99: f64,
-    max: f64,
-}
-
-/// Nearest-rank percentiles of `latencies_ns`; `None` when empty.
-fn percentiles(latencies_ns: &[i128]) -> Option<Percentiles> {
-    let mut sorted: Vec<i128> = latencies_ns.to_vec();
-    sorted.sort_unstable();
-    let n = sorted.len();
-    let rank = |p: f64| {
-        let r = (p / 100.0 * n as f64).ceil() as usize;
-        sorted[r.clamp(1, n) - 1] as f64 / 1e6
-    };
-    (n > 0).then(|| Percentiles {
-        p50: rank(50.0),
-        p90: rank(90.0),
-        p99: rank(99.0),
-        max: sorted[n - 1] as f64 / 1e6,
-    })
-}
-
 /// One row of the report.
 #[derive(Debug)]
 struct Row {
@@ -575,7 +496,10 @@ fn summarize(size: ImageSize, sent: Sent, arrivals: &[Arrival]) -> Row {
     for a in arrivals {
         first.entry(a.frame).or_insert(*a);
     }
-    let latencies: Vec<i128> = first.values().map(|a| a.latency_ns).collect();
+    let latencies: Vec<Duration> = first
+        .values()
+        .map(|a| Duration::from_nanos(u64::try_from(a.latency_ns).unwrap_or(0)))
+        .collect();
     let corrupt = first
         .values()
         .filter(|a| !a.intact || a.bytes != size.data_len())
@@ -656,8 +580,13 @@ fn print_report(args: &Args, rows: &[Row]) {
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     for row in rows {
-        let publish_ms: Vec<i128> = row.sent.publish_ns.iter().map(|&n| i128::from(n)).collect();
-        let publish_p50 = percentiles(&publish_ms).map_or(f64::NAN, |p| p.p50);
+        let publish: Vec<Duration> = row
+            .sent
+            .publish_ns
+            .iter()
+            .map(|&n| Duration::from_nanos(n))
+            .collect();
+        let publish_p50 = percentiles(&publish).map_or(f64::NAN, |p| p.p50);
         let l = row.latency.unwrap_or(Percentiles {
             p50: f64::NAN,
             p90: f64::NAN,
@@ -701,34 +630,16 @@ mod tests {
     use super::*;
 
     #[test]
-    fn image_sizes_parse_and_reject_nonsense() {
-        let s: ImageSize = "1920x1080:rgb8".parse().unwrap();
-        assert_eq!(s.data_len(), 1920 * 1080 * 3);
-        assert_eq!(s.encoding(), "rgb8");
-        assert!("1920x1080:bgr16".parse::<ImageSize>().is_err());
-        assert!("0x10:mono8".parse::<ImageSize>().is_err());
-        assert!("1920:mono8".parse::<ImageSize>().is_err());
-    }
-
-    #[test]
-    fn percentiles_use_nearest_rank() {
-        let ns: Vec<i128> = (1..=100).rev().map(|ms| ms * 1_000_000).collect();
-        let p = percentiles(&ns).unwrap();
-        assert_eq!((p.p50, p.p90, p.p99, p.max), (50.0, 90.0, 99.0, 100.0));
-        assert_eq!(percentiles(&[]), None);
-    }
-
-    #[test]
     fn arrivals_round_trip_and_duplicates_count_once() {
         let a = Arrival {
             frame: 7,
-            bytes: 12,
+            bytes: 256,
             latency_ns: 1_500_000,
             intact: true,
         };
         assert_eq!(Arrival::from_line(&a.to_line()), Some(a));
         assert_eq!(Arrival::from_line("7 12"), None);
-        let size: ImageSize = "4x3:mono8".parse().unwrap();
+        let size: ImageSize = "16x16:mono8".parse().unwrap();
         let broken = Arrival { frame: 8, ..a };
         let broken = Arrival {
             intact: false,

@@ -34,6 +34,7 @@ use ros2_client::{
     Subscription,
     dds::rustdds::mio1::{Events, Interest, Poll, Token},
 };
+use stereocal::measure::{ImageSize, Percentiles, Reliability as Rel, percentiles};
 use stereocal::rectify_stage::{Rectified, Rectifier};
 use stereocal::runtime::qos;
 use stereocal::runtime::transport::{RECEIVE_BUFFER_ENV, SEND_BUFFER_ENV, TransportConfig};
@@ -146,60 +147,6 @@ const TRANSPORT_VARIABLES: [&str; 4] = [
     RECEIVE_BUFFER_ENV,
     SEND_BUFFER_ENV,
 ];
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-enum Rel {
-    Reliable,
-    BestEffort,
-}
-
-/// One image geometry and encoding to measure.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-struct ImageSize {
-    width: u32,
-    height: u32,
-    channels: u32,
-}
-
-impl ImageSize {
-    fn encoding(&self) -> &'static str {
-        if self.channels == 3 { "rgb8" } else { "mono8" }
-    }
-
-    fn data_len(&self) -> usize {
-        self.width as usize * self.height as usize * self.channels as usize
-    }
-}
-
-impl std::str::FromStr for ImageSize {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        let expected = || format!("'{s}': expected WIDTHxHEIGHT:ENCODING, e.g. 640x480:mono8");
-        let (dims, encoding) = s.split_once(':').ok_or_else(expected)?;
-        let (w, h) = dims.split_once('x').ok_or_else(expected)?;
-        let width: u32 = w.trim().parse().map_err(|_| expected())?;
-        let height: u32 = h.trim().parse().map_err(|_| expected())?;
-        let channels = match encoding.trim() {
-            "mono8" => 1,
-            "rgb8" => 3,
-            other => return Err(format!("'{other}': encoding must be mono8 or rgb8")),
-        };
-        if width < 16 || height < 16 {
-            return Err(format!("'{s}': images must be at least 16x16"));
-        }
-        Ok(Self {
-            width,
-            height,
-            channels,
-        })
-    }
-}
-
-impl std::fmt::Display for ImageSize {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}x{} {}", self.width, self.height, self.encoding())
-    }
-}
 
 /// A camera_info such as a calibrated camera of this size publishes: focal length
 /// about a 70 degree field of view, principal point off centre, barrel distortion
@@ -316,32 +263,6 @@ struct Arrival {
     intact: bool,
 }
 
-/// Latency percentiles, milliseconds.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Percentiles {
-    p50: f64,
-    p90: f64,
-    p99: f64,
-    max: f64,
-}
-
-/// Nearest-rank percentiles of `latencies_ns`; `None` when empty.
-fn percentiles(latencies_ns: &[i64]) -> Option<Percentiles> {
-    let mut sorted = latencies_ns.to_vec();
-    sorted.sort_unstable();
-    let n = sorted.len();
-    let rank = |p: f64| {
-        let r = (p / 100.0 * n as f64).ceil() as usize;
-        sorted[r.clamp(1, n) - 1] as f64 / 1e6
-    };
-    (n > 0).then(|| Percentiles {
-        p50: rank(50.0),
-        p90: rank(90.0),
-        p99: rank(99.0),
-        max: sorted[n - 1] as f64 / 1e6,
-    })
-}
-
 /// What rectify_node reports about itself when it stops.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 struct NodeCounts {
@@ -391,13 +312,18 @@ struct Row {
     reader_locators: Vec<SocketAddr>,
 }
 
+/// A measured span in nanoseconds as a duration (a negative one, from clock steps, as 0).
+fn nanos(ns: i64) -> Duration {
+    Duration::from_nanos(u64::try_from(ns).unwrap_or(0))
+}
+
 /// Frames that arrived (each counted once) and their latencies.
 fn summarize_arrivals(arrivals: &[Arrival]) -> (usize, usize, Option<Percentiles>) {
     let mut first: HashMap<u32, Arrival> = HashMap::new();
     for a in arrivals {
         first.entry(a.frame).or_insert(*a);
     }
-    let latencies: Vec<i64> = first.values().map(|a| a.latency_ns).collect();
+    let latencies: Vec<Duration> = first.values().map(|a| nanos(a.latency_ns)).collect();
     let mismatched = first.values().filter(|a| !a.intact).count();
     (first.len(), mismatched, percentiles(&latencies))
 }
@@ -776,7 +702,14 @@ fn measure(
         delivered,
         mismatched,
         latency,
-        publish_p50_ms: percentiles(&camera.publish_ns).map(|p| p.p50),
+        publish_p50_ms: percentiles(
+            &camera
+                .publish_ns
+                .iter()
+                .map(|&n| nanos(n))
+                .collect::<Vec<_>>(),
+        )
+        .map(|p| p.p50),
         node: NodeCounts::from_log(&log),
         reader_locators,
     })
@@ -909,15 +842,6 @@ fn main() -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn image_sizes_parse_and_reject_nonsense() {
-        let s: ImageSize = "1920x1080:rgb8".parse().unwrap();
-        assert_eq!(s.data_len(), 1920 * 1080 * 3);
-        assert!("1920x1080:bgr16".parse::<ImageSize>().is_err());
-        assert!("8x8:mono8".parse::<ImageSize>().is_err());
-        assert!("1920:mono8".parse::<ImageSize>().is_err());
-    }
 
     #[test]
     fn configurations_give_the_transport_the_node_will_use() {

@@ -278,14 +278,11 @@ fn print_alignment(alignment: &RowAlignment, frames: usize) {
 }
 
 fn print_latency(outcome: &ReplayOutcome) {
-    let ms = |q| {
-        outcome
-            .latency_quantile(q)
-            .map_or(f64::NAN, |d| d.as_secs_f64() * 1e3)
-    };
-    println!(
-        "  latency publish -> image_rect   p50 {:.1} ms, p99 {:.1} ms",
-        ms(0.5),
-        ms(0.99)
-    );
+    match outcome.latency() {
+        Some(latency) => println!(
+            "  latency publish -> image_rect   p50 {:.1} ms, p99 {:.1} ms",
+            latency.p50, latency.p99
+        ),
+        None => println!("  latency publish -> image_rect   nothing arrived"),
+    }
 }
