@@ -24,6 +24,10 @@ pub(crate) trait BlockProblem {
     /// Sum of squared residuals of `view` at `state`.
     fn view_cost(&self, state: &Self::State, view: usize) -> f64;
 
+    /// Whether `state` is one the solution may take: when the initial state is, no step
+    /// leaves the admissible states.
+    fn admissible(&self, state: &Self::State) -> bool;
+
     /// The state moved by `d_shared` (free shared parameters) and one pose update per
     /// view.
     fn retract(
@@ -253,7 +257,9 @@ fn shared_inverse(lin: &Linearization) -> Option<DMatrix<f64>> {
 }
 
 /// Minimizes the problem's sum of squared residuals from `initial` by
-/// Levenberg-Marquardt with Marquardt's diagonal scaling and Nielsen's damping update.
+/// Levenberg-Marquardt with Marquardt's diagonal scaling and Nielsen's damping update;
+/// from an admissible `initial`, a step into an inadmissible state is refused as one
+/// that does not reduce the cost.
 pub(crate) fn solve<P: BlockProblem>(
     problem: &P,
     initial: P::State,
@@ -268,6 +274,7 @@ pub(crate) fn solve<P: BlockProblem>(
         g_shared: DVector::zeros(n),
         cost: 0.0,
     };
+    let constrained = problem.admissible(&initial);
     let mut state = initial;
     let mut lambda = 1e-3;
     let mut nu = 2.0;
@@ -283,9 +290,13 @@ pub(crate) fn solve<P: BlockProblem>(
                 continue;
             };
             let candidate = problem.retract(&state, &d_shared, &d_views);
-            let cost: f64 = (0..problem.view_count())
-                .map(|v| problem.view_cost(&candidate, v))
-                .sum();
+            let cost: f64 = if constrained && !problem.admissible(&candidate) {
+                f64::INFINITY
+            } else {
+                (0..problem.view_count())
+                    .map(|v| problem.view_cost(&candidate, v))
+                    .sum()
+            };
             let reduction = lin.cost - cost;
             if cost.is_finite() && reduction > 0.0 {
                 let rho = if predicted > 0.0 {

@@ -13,6 +13,7 @@ mod epipolar;
 mod error;
 mod homography;
 mod init;
+mod invertibility;
 mod mono;
 mod parameters;
 mod rejection;

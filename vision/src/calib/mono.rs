@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use super::bundle::{self, Termination};
 use super::homography::homography;
 use super::init::{fisheye_intrinsics, initial_pose, pinhole_intrinsics, tilt};
+use super::invertibility::invertible_over_image;
 use super::parameters::{FixedParameters, Parameterization, coefficient_count, tangential_indices};
 use super::rejection::{RejectedView, RejectionOptions, RejectionReason, worst_view};
 use super::reprojection::{MonoProblem, MonoState, squared_errors};
@@ -15,6 +16,57 @@ use crate::camera::{CameraModel, Distortion, DistortionModel};
 
 /// Views below which the intrinsics are not determined.
 pub const MIN_VIEWS: usize = 3;
+
+/// Indices of rational_polynomial's denominator coefficients `k4, k5, k6` in
+/// camera_info order.
+const RATIONAL_DENOMINATOR: [usize; 3] = [5, 6, 7];
+
+/// A rational_polynomial fit that stays invertible beyond the image corners, for when
+/// the free fit did not. Numerator and denominator can grow together along a nearly
+/// flat valley of the cost, where the lens fits the corners as well but folds back, or
+/// has a pole, before the image border. So the lens is fitted again from `solved`'s
+/// intrinsics and poses: first with the denominator held at its initial value
+/// (`initial_distortion`, zero without a guess: plumb_bob's shape), then with every
+/// coefficient free but only through lenses that stay invertible. Returns the state
+/// and its solution.
+fn invertible_rational(
+    views: Vec<&View>,
+    solved: MonoState,
+    initial_distortion: Distortion,
+    options: &MonoOptions,
+    termination: Termination,
+) -> (MonoState, bundle::Solution<MonoState>) {
+    let mut held = options.fixed.clone();
+    held.distortion.extend(RATIONAL_DENOMINATOR);
+    let numerator_only = MonoProblem {
+        views,
+        parameterization: Parameterization::new(options.model, &held, aspect_ratio(options)),
+        keep_invertible: false,
+    };
+    let start = MonoState {
+        camera: CameraModel {
+            distortion: initial_distortion,
+            ..solved.camera
+        },
+        camera_from_target: solved.camera_from_target,
+    };
+    let first = bundle::solve(&numerator_only, start, termination);
+    if !invertible_over_image(&first.state.camera) {
+        // A lens that folds even in plumb_bob's shape: no invertible fit to move from.
+        return (first.state.clone(), first);
+    }
+    let problem = MonoProblem {
+        views: numerator_only.views,
+        parameterization: Parameterization::new(
+            options.model,
+            &options.fixed,
+            aspect_ratio(options),
+        ),
+        keep_invertible: true,
+    };
+    let solution = bundle::solve(&problem, first.state, termination);
+    (solution.state.clone(), solution)
+}
 
 /// Views whose largest tilt is below this many degrees cannot fix the focal length.
 const MIN_TILT_DEGREES: f64 = 5.0;
@@ -161,7 +213,9 @@ pub fn calibrate_mono(
     let pose_problem = MonoProblem {
         views: used.iter().map(|&i| &views[i]).collect(),
         parameterization: Parameterization::none(),
+        keep_invertible: false,
     };
+    let initial_distortion = state.camera.distortion.clone();
     let mut state = bundle::solve(
         &pose_problem,
         state,
@@ -178,6 +232,7 @@ pub fn calibrate_mono(
         let problem = MonoProblem {
             views: used.iter().map(|&i| &views[i]).collect(),
             parameterization: parameterization.clone(),
+            keep_invertible: false,
         };
         solution = bundle::solve(&problem, state, termination);
         state = solution.state.clone();
@@ -206,6 +261,15 @@ pub fn calibrate_mono(
             reason,
         });
         state.camera_from_target.remove(position);
+    }
+    if model == DistortionModel::RationalPolynomial && !invertible_over_image(&state.camera) {
+        (state, solution) = invertible_rational(
+            used.iter().map(|&i| &views[i]).collect(),
+            state,
+            initial_distortion,
+            options,
+            termination,
+        );
     }
     if !parameters_finite(&state) {
         return Err(CalibError::Diverged);
@@ -270,6 +334,7 @@ fn fisheye_focal_search(views: &[View], width: u32, height: u32) -> crate::camer
             let problem = MonoProblem {
                 views: vec![view],
                 parameterization: Parameterization::none(),
+                keep_invertible: false,
             };
             let state = MonoState {
                 camera: camera.clone(),

@@ -5,6 +5,7 @@ use nalgebra::{DVector, Isometry3, Vector2, Vector6};
 
 use super::View;
 use super::bundle::{BlockProblem, ViewAccumulator};
+use super::invertibility::invertible_over_image;
 use super::parameters::{PINHOLE_PARAMETERS, Parameterization};
 use crate::camera::{CameraModel, TargetProjection, retract_pose};
 
@@ -19,6 +20,8 @@ pub(crate) struct MonoState {
 pub(crate) struct MonoProblem<'a> {
     pub views: Vec<&'a View>,
     pub parameterization: Parameterization,
+    /// Refuse steps to a lens that cannot be inverted out to the image corners.
+    pub keep_invertible: bool,
 }
 
 /// The 2 x (4 + distortion) Jacobian of a projection with respect to the full
@@ -103,6 +106,10 @@ impl BlockProblem for MonoProblem<'_> {
             &state.camera_from_target[view],
             self.views[view],
         )
+    }
+
+    fn admissible(&self, state: &MonoState) -> bool {
+        !self.keep_invertible || invertible_over_image(&state.camera)
     }
 
     fn retract(

@@ -10,12 +10,13 @@ use nalgebra::{
 use super::bundle::{self, BlockProblem, Termination, ViewAccumulator};
 use super::epipolar::{epipolar_distances, essential_matrix, fundamental_matrix};
 use super::init::initial_pose;
+use super::invertibility::invertible_over_image;
 use super::mono::{MIN_VIEWS, corner_errors};
 use super::parameters::{FixedParameters, Parameterization};
 use super::rejection::{RejectedView, RejectionOptions, RejectionReason, median, worst_view};
 use super::reprojection::{MonoProblem, MonoState, full_intrinsic_jacobian, view_sum_of_squares};
 use super::{CalibError, View};
-use crate::camera::{CameraModel, retract_pose};
+use crate::camera::{CameraModel, DistortionModel, retract_pose};
 
 /// The corners of a target seen by both cameras of a pair: target points (target
 /// frame, `z = 0`) with their left and right pixels, in the same order.
@@ -124,6 +125,8 @@ struct StereoProblem<'a> {
     pairs: Vec<&'a StereoView>,
     left: Parameterization,
     right: Parameterization,
+    /// Refuse steps to a lens that cannot be inverted out to the image corners.
+    keep_invertible: bool,
 }
 
 /// The adjoint of a pose for the `[omega; tau]` left perturbation:
@@ -212,6 +215,11 @@ impl BlockProblem for StereoProblem<'_> {
             )
     }
 
+    fn admissible(&self, state: &StereoState) -> bool {
+        !self.keep_invertible
+            || (invertible_over_image(&state.left) && invertible_over_image(&state.right))
+    }
+
     fn retract(
         &self,
         state: &StereoState,
@@ -243,6 +251,7 @@ fn target_pose(camera: &CameraModel, view: &View) -> Option<Isometry3<f64>> {
     let problem = MonoProblem {
         views: vec![view],
         parameterization: Parameterization::none(),
+        keep_invertible: false,
     };
     let state = MonoState {
         camera: camera.clone(),
@@ -337,6 +346,12 @@ pub fn calibrate_stereo(
         max_iterations: options.max_iterations,
         ..Termination::default()
     };
+    // Refined rational_polynomial lenses keep to the invertible fits the mono
+    // calibrations found (see `calibrate_mono`).
+    let keep_invertible = options.refine_intrinsics
+        && [left, right]
+            .iter()
+            .any(|c| c.distortion.model() == DistortionModel::RationalPolynomial);
     let mut state = StereoState {
         left: left.clone(),
         right: right.clone(),
@@ -348,6 +363,7 @@ pub fn calibrate_stereo(
             pairs: used.iter().map(|&i| &pairs[i]).collect(),
             left: left_parameters.clone(),
             right: right_parameters.clone(),
+            keep_invertible,
         };
         state = bundle::solve(&problem, state, termination).state;
         let Some(rejection) = &options.rejection else {
