@@ -2,7 +2,8 @@
 //! scene: a plumb_bob rig, a 9x6 board, one frame in ten bad), whose views leave the
 //! image corners unobserved: the eight coefficients could fit the corners with a lens
 //! that folds back or has a pole before the image border. The calibration must stay
-//! invertible out to the border, match the truth, and rectify.
+//! invertible out to the border, match the truth, and rectify, also when the stereo
+//! solve refines the lenses.
 
 use nalgebra::{Point2, Point3};
 use stereocal_vision::board::{Chessboard, ChessboardDetector, Target, TargetDetector};
@@ -124,33 +125,45 @@ fn rational_polynomial_of_a_rendered_session_stays_invertible_and_rectifies() {
         assert!(whole < 1.0, "image border moved by {whole} px");
         calibrated.push(calibration.camera);
     }
-    let stereo = calibrate_stereo(
-        &calibrated[0],
-        &calibrated[1],
-        &pairs,
-        &StereoOptions::default(),
-    )
-    .unwrap();
-    let rotation_error = stereo
-        .right_from_left
-        .rotation
-        .angle_to(&right_from_left.rotation)
-        .to_degrees();
-    let translation_error =
-        (stereo.right_from_left.translation.vector - right_from_left.translation.vector).norm();
-    assert!(
-        rotation_error < 0.05,
-        "rotation off by {rotation_error} deg"
-    );
-    assert!(
-        translation_error < 0.3e-3,
-        "translation off by {translation_error} m"
-    );
-    stereo_rectify(
-        &stereo.left,
-        &stereo.right,
-        &stereo.right_from_left,
-        &StereoRectifyOptions::default(),
-    )
-    .unwrap();
+    for refine_intrinsics in [false, true] {
+        let stereo = calibrate_stereo(
+            &calibrated[0],
+            &calibrated[1],
+            &pairs,
+            &StereoOptions {
+                refine_intrinsics,
+                ..StereoOptions::default()
+            },
+        )
+        .unwrap();
+        let rotation_error = stereo
+            .right_from_left
+            .rotation
+            .angle_to(&right_from_left.rotation)
+            .to_degrees();
+        let translation_error =
+            (stereo.right_from_left.translation.vector - right_from_left.translation.vector).norm();
+        assert!(
+            rotation_error < 0.05,
+            "rotation off by {rotation_error} deg"
+        );
+        assert!(
+            translation_error < 0.3e-3,
+            "translation off by {translation_error} m"
+        );
+        for lens in [&stereo.left, &stereo.right] {
+            assert!(
+                border(lens, 8).iter().all(|p| lens.unproject(p).is_some()),
+                "{:?} does not invert to the border",
+                lens.distortion
+            );
+        }
+        stereo_rectify(
+            &stereo.left,
+            &stereo.right,
+            &stereo.right_from_left,
+            &StereoRectifyOptions::default(),
+        )
+        .unwrap();
+    }
 }
