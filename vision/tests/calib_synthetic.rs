@@ -287,46 +287,32 @@ fn check_against_truth(
     assert!(std.fx > 0.0 && std.fx < 0.2, "fx std {}", std.fx);
 }
 
-#[test]
-fn plumb_bob_matches_ground_truth_and_rejects_the_bad_views() {
-    let truth = plumb_bob();
-    let views = mono_session(&truth, 1, VIEWS);
+/// Calibrates a seeded session of `truth`'s model and checks it against `truth`.
+fn calibrates_to_truth(truth: &CameraModel, seed: u64) {
+    let views = mono_session(truth, seed, VIEWS);
     let calibration = calibrate_mono(
         &views,
         WIDTH,
         HEIGHT,
-        &MonoOptions::new(DistortionModel::PlumbBob),
+        &MonoOptions::new(truth.distortion.model()),
     )
     .unwrap();
-    check_against_truth(&truth, &calibration, &views, 0.2);
+    check_against_truth(truth, &calibration, &views, 0.2);
+}
+
+#[test]
+fn plumb_bob_matches_ground_truth_and_rejects_the_bad_views() {
+    calibrates_to_truth(&plumb_bob(), 1);
 }
 
 #[test]
 fn rational_polynomial_matches_ground_truth_and_rejects_the_bad_views() {
-    let truth = rational();
-    let views = mono_session(&truth, 2, VIEWS);
-    let calibration = calibrate_mono(
-        &views,
-        WIDTH,
-        HEIGHT,
-        &MonoOptions::new(DistortionModel::RationalPolynomial),
-    )
-    .unwrap();
-    check_against_truth(&truth, &calibration, &views, 0.2);
+    calibrates_to_truth(&rational(), 2);
 }
 
 #[test]
 fn equidistant_matches_ground_truth_and_rejects_the_bad_views() {
-    let truth = equidistant();
-    let views = mono_session(&truth, 3, VIEWS);
-    let calibration = calibrate_mono(
-        &views,
-        WIDTH,
-        HEIGHT,
-        &MonoOptions::new(DistortionModel::Equidistant),
-    )
-    .unwrap();
-    check_against_truth(&truth, &calibration, &views, 0.2);
+    calibrates_to_truth(&equidistant(), 3);
 }
 
 #[test]
