@@ -196,22 +196,13 @@ fn mono_session(camera: &CameraModel, seed: u64, count: usize) -> Vec<View> {
         .collect()
 }
 
-fn left_views(session: &[StereoView]) -> Vec<View> {
+/// One camera's views of a stereo session: `pixels` picks its corners.
+fn camera_views(session: &[StereoView], pixels: fn(&StereoView) -> &Vec<Point2<f64>>) -> Vec<View> {
     session
         .iter()
         .map(|v| View {
             points_in_target: v.points_in_target.clone(),
-            pixels: v.left.clone(),
-        })
-        .collect()
-}
-
-fn right_views(session: &[StereoView]) -> Vec<View> {
-    session
-        .iter()
-        .map(|v| View {
-            points_in_target: v.points_in_target.clone(),
-            pixels: v.right.clone(),
+            pixels: pixels(v).clone(),
         })
         .collect()
 }
@@ -363,14 +354,14 @@ fn check_stereo(left: &CameraModel, right: &CameraModel, seed: u64, model: Disto
     let truth = rig();
     let session = stereo_session(left, right, &truth, seed, VIEWS);
     let left_calibration = calibrate_mono(
-        &left_views(&session),
+        &camera_views(&session, |v| &v.left),
         WIDTH,
         HEIGHT,
         &MonoOptions::new(model),
     )
     .unwrap();
     let right_calibration = calibrate_mono(
-        &right_views(&session),
+        &camera_views(&session, |v| &v.right),
         WIDTH,
         HEIGHT,
         &MonoOptions::new(model),

@@ -3,47 +3,16 @@
 
 use nalgebra::{DMatrix, Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use serde_json::Value;
-use stereocal_vision::camera::{CameraModel, Distortion, DistortionModel, Intrinsics, Roi};
+use stereocal_vision::camera::CameraModel;
 use stereocal_vision::rectify::{
     StereoLayout, StereoRectification, StereoRectifyOptions, fisheye_stereo_rectify, stereo_rectify,
 };
 
-const FIXTURE: &str = include_str!("fixtures/opencv_camera_reference.json");
-
-fn fixture() -> Value {
-    serde_json::from_str(FIXTURE).expect("fixture is valid JSON")
-}
-
-fn f64s(value: &Value) -> Vec<f64> {
-    value
-        .as_array()
-        .expect("array")
-        .iter()
-        .flat_map(|v| match v {
-            Value::Array(_) => f64s(v),
-            _ => vec![v.as_f64().expect("number")],
-        })
-        .collect()
-}
+mod common;
+use common::opencv_fixture::{camera, f64s, fixture, roi};
 
 fn matrix(value: &Value, rows: usize, cols: usize) -> DMatrix<f64> {
     DMatrix::from_row_slice(rows, cols, &f64s(value))
-}
-
-fn camera(fixture: &Value, name: &str) -> CameraModel {
-    let c = &fixture["cameras"][name];
-    let model = DistortionModel::from_ros_name(c["model"].as_str().expect("model")).expect("known");
-    CameraModel {
-        width: c["width"].as_u64().expect("width") as u32,
-        height: c["height"].as_u64().expect("height") as u32,
-        intrinsics: Intrinsics {
-            fx: c["fx"].as_f64().expect("fx"),
-            fy: c["fy"].as_f64().expect("fy"),
-            cx: c["cx"].as_f64().expect("cx"),
-            cy: c["cy"].as_f64().expect("cy"),
-        },
-        distortion: Distortion::from_coeffs(model, &f64s(&c["coeffs"])).expect("coefficients"),
-    }
 }
 
 /// The rig's cameras and `right_from_left` (OpenCV's `R`, `T`).
@@ -60,16 +29,6 @@ fn rig(fixture: &Value, name: &str) -> (CameraModel, CameraModel, Isometry3<f64>
         camera(fixture, rig["right"].as_str().expect("right")),
         right_from_left,
     )
-}
-
-fn roi(value: &Value) -> Roi {
-    let v = f64s(value);
-    Roi {
-        x: v[0] as u32,
-        y: v[1] as u32,
-        width: v[2] as u32,
-        height: v[3] as u32,
-    }
 }
 
 fn to_dynamic(m: impl AsRef<[f64]>, rows: usize, cols: usize) -> DMatrix<f64> {

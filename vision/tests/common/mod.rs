@@ -1,0 +1,3 @@
+//! Helpers shared by the integration tests of stereocal-vision.
+
+pub mod opencv_fixture;
