@@ -84,6 +84,7 @@ def transform_stamped(child):
 SAMPLES = {
     'builtin_interfaces__msg__Time': ('builtin_interfaces/msg/Time', time()),
     'std_msgs__msg__Header': ('std_msgs/msg/Header', header('left_optical')),
+    'std_msgs__msg__String': ('std_msgs/msg/String', T['std_msgs/msg/String'](data='{"samples": 3}')),
     'sensor_msgs__msg__Image': ('sensor_msgs/msg/Image', image()),
     'sensor_msgs__msg__CompressedImage': ('sensor_msgs/msg/CompressedImage', T['sensor_msgs/msg/CompressedImage'](
         header=header('cam'), format='png', data=np.array([137, 80, 78, 71, 1, 2, 3], dtype=np.uint8))),

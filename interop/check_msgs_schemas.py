@@ -20,6 +20,7 @@ FIXTURES = Path(__file__).resolve().parent.parent / 'msgs' / 'tests' / 'fixtures
 TYPES = [
     'builtin_interfaces/msg/Time',
     'std_msgs/msg/Header',
+    'std_msgs/msg/String',
     'sensor_msgs/msg/Image',
     'sensor_msgs/msg/CompressedImage',
     'sensor_msgs/msg/RegionOfInterest',

@@ -11,7 +11,7 @@ pub struct Header {
     /// Acquisition time of the data.
     pub stamp: Time,
     /// Coordinate frame of the data (e.g. the camera's optical frame).
-    pub frame_id: String,
+    pub frame_id: std::string::String,
 }
 
 ros_message!(
@@ -20,3 +20,12 @@ ros_message!(
     "builtin_interfaces/Time stamp\nstring frame_id\n",
     Time
 );
+
+/// `std_msgs/msg/String`: one string (e.g. a node's status as JSON).
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct String {
+    /// The text.
+    pub data: std::string::String,
+}
+
+ros_message!(String, "std_msgs/msg/String", "string data\n");

@@ -11,7 +11,7 @@ use stereocal_msgs::geometry_msgs::{
 };
 use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
 use stereocal_msgs::sensor_msgs::{CameraInfo, CompressedImage, Image, RegionOfInterest};
-use stereocal_msgs::std_msgs::Header;
+use stereocal_msgs::std_msgs::{self, Header};
 use stereocal_msgs::std_srvs::srv::{TriggerRequest, TriggerResponse};
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_msgs::tf2_msgs::TFMessage;
@@ -224,6 +224,16 @@ fn tf_and_stereo_msgs_match_rosbags() {
     check(
         disparity_image(),
         fixture!("stereo_msgs__msg__DisparityImage"),
+    );
+}
+
+#[test]
+fn string_matches_rosbags() {
+    check(
+        std_msgs::String {
+            data: r#"{"samples": 3}"#.to_owned(),
+        },
+        fixture!("std_msgs__msg__String"),
     );
 }
 

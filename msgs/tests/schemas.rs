@@ -8,7 +8,7 @@ use stereocal_msgs::geometry_msgs::{
 };
 use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
 use stereocal_msgs::sensor_msgs::{CameraInfo, CompressedImage, Image, RegionOfInterest};
-use stereocal_msgs::std_msgs::Header;
+use stereocal_msgs::std_msgs::{self, Header};
 use stereocal_msgs::std_srvs::srv::{TriggerRequest, TriggerResponse};
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_msgs::tf2_msgs::TFMessage;
@@ -29,6 +29,7 @@ macro_rules! check_schema {
 fn message_schemas_match_rosbags() {
     check_schema!(Time, "builtin_interfaces__msg__Time");
     check_schema!(Header, "std_msgs__msg__Header");
+    check_schema!(std_msgs::String, "std_msgs__msg__String");
     check_schema!(Image, "sensor_msgs__msg__Image");
     check_schema!(CompressedImage, "sensor_msgs__msg__CompressedImage");
     check_schema!(RegionOfInterest, "sensor_msgs__msg__RegionOfInterest");
