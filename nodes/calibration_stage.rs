@@ -23,6 +23,7 @@ use stereocal_vision::rectify::{
 };
 use thiserror::Error;
 
+use crate::calibration_advice::RegionCoverage;
 use crate::convert::{CalibratedCamera, info_from_calibrated, info_from_raw_camera};
 
 /// What was found in one frame of one camera.
@@ -79,6 +80,8 @@ pub struct CameraResult {
     /// The camera_info: K and D from the calibration; R and P from the stereo
     /// rectification for a pair, `R = I` and `P = [K | 0]` for a mono camera.
     pub info: CameraInfo,
+    /// Where the corners of the used views fell in the image.
+    pub coverage: RegionCoverage,
 }
 
 /// The calibrated stereo pair.
@@ -117,12 +120,16 @@ pub enum CalibrationStageError {
         frames: usize,
     },
     /// A camera's calibration failed.
-    #[error("camera {camera}: {error}")]
+    #[error("camera {camera}: {error}{}", unusable_note(*unusable, *frames))]
     Mono {
         /// The camera.
         camera: String,
         /// Why.
         error: CalibError,
+        /// Frames searched.
+        frames: usize,
+        /// Frames without a usable board.
+        unusable: usize,
     },
     /// No frame stamp has the board found and kept in both cameras.
     #[error(
@@ -189,10 +196,21 @@ pub fn calibrate_camera(
     .map_err(|error| CalibrationStageError::Mono {
         camera: camera.name.clone(),
         error,
+        frames: camera.frames.len(),
+        unusable: rejected.len(),
     })?;
     rejected.extend(rejected_frames(&calibration.rejected, &found));
     rejected.sort_by_key(|r| r.stamp);
     let used = calibration.views.iter().map(|v| found[v.index]).collect();
+    let coverage = RegionCoverage::from_pixels(
+        calibration
+            .views
+            .iter()
+            .flat_map(|v| views.get(v.index).map(|view| &view.pixels))
+            .flatten(),
+        camera.width,
+        camera.height,
+    );
     let info = info_from_raw_camera(&calibration.camera, Header::default());
     Ok(CameraResult {
         name: camera.name.clone(),
@@ -200,6 +218,7 @@ pub fn calibrate_camera(
         used,
         rejected,
         info,
+        coverage,
     })
 }
 
@@ -285,6 +304,18 @@ pub fn calibrate_pair(
             rejected,
         }),
     })
+}
+
+/// What a failed mono calibration adds about the frames that had no usable board.
+fn unusable_note(unusable: usize, frames: usize) -> String {
+    if unusable == 0 {
+        String::new()
+    } else {
+        format!(
+            "; {unusable} of {frames} frames showed no complete board (blurred, partly out \
+             of view, or another --size)"
+        )
+    }
 }
 
 /// The corners both views saw, matched by target point.

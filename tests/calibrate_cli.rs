@@ -1,7 +1,8 @@
 //! `stereocal calibrate` on a synthetic stereo calibration session (1024x768, 25 frames,
 //! about one in ten bad): the intrinsics and `right_from_left` against ground truth, the
 //! bad frames left out and reported, the files it writes, its `--json` output; a mono
-//! camera; and clear errors for a missing topic, a wrong board size and too few views.
+//! camera; warnings on a calibration that should not be trusted; and clear errors for a
+//! missing topic, a wrong board size and too few views.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -73,6 +74,11 @@ fn stereo_session_matches_ground_truth_and_reports_bad_frames() {
     .unwrap();
     let outcome = &report.outcome;
     assert_eq!(outcome.cameras.len(), 2);
+    // A session covering the image with enough sharp views earns no warning.
+    assert_eq!(
+        stereocal::calibration_advice::warnings(outcome),
+        Vec::<String>::new()
+    );
 
     for (camera, record) in outcome.cameras.iter().zip(&truth.cameras) {
         assert_eq!(camera.name, record.name);
@@ -282,6 +288,18 @@ fn mono_camera_is_written_under_its_name_without_rectification() {
     assert!(!out.join("stereo.yaml").exists());
 
     let value = report_json(&report);
+    let warnings: Vec<&str> = value["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    assert!(
+        warnings
+            .iter()
+            .any(|w| w.starts_with("camera front: only 3 views used")),
+        "three views are too few to trust: {warnings:?}"
+    );
     assert!(value.get("stereo").is_none());
     assert_eq!(value["cameras"]["front"]["views_used"], 3);
     assert_eq!(value["cameras"].as_object().unwrap().len(), 1);
@@ -321,6 +339,13 @@ fn too_few_views_says_to_collect_more() {
                 corners: FrameCorners::Found(view),
             }
         })
+        .chain([Frame {
+            stamp: Time {
+                sec: 1_800_000_000,
+                nanosec: 0,
+            },
+            corners: FrameCorners::Unusable("no complete board found".to_owned()),
+        }])
         .collect();
     let camera = CameraFrames {
         name: "left".to_owned(),
@@ -345,4 +370,8 @@ fn too_few_views_says_to_collect_more() {
         "{message}"
     );
     assert!(message.contains("collect more views"), "{message}");
+    assert!(
+        message.ends_with("1 of 3 frames showed no complete board (blurred, partly out of view, or another --size)"),
+        "{message}"
+    );
 }

@@ -25,6 +25,7 @@ use stereocal_vision::calib::View;
 use stereocal_vision::camera::DistortionModel;
 
 use crate::bag::{BagReader, TopicFilter};
+use crate::calibration_advice;
 use crate::calibration_stage::{
     CalibrationOutcome, CameraFrames, CameraResult, Frame, FrameCorners, calibrate_camera,
     calibrate_pair,
@@ -489,7 +490,8 @@ fn camera_json(camera: &CameraResult) -> serde_json::Value {
 /// The JSON object `--json` prints: per camera RMS, K (row-major), D, model, size,
 /// views used and rejected (stamp as `{"sec", "nanosec"}`, reason); for a pair, the
 /// stereo RMS, `right_from_left` (row-major rotation, translation in metres), epipolar
-/// RMS, and the pairs used and rejected.
+/// RMS, and the pairs used and rejected; `warnings` lists what makes the result less
+/// trustworthy and what to do about it.
 pub fn report_json(report: &CalibrateReport) -> serde_json::Value {
     let cameras: serde_json::Map<String, serde_json::Value> = report
         .outcome
@@ -497,7 +499,10 @@ pub fn report_json(report: &CalibrateReport) -> serde_json::Value {
         .iter()
         .map(|c| (c.name.clone(), camera_json(c)))
         .collect();
-    let mut object = json!({ "cameras": cameras });
+    let mut object = json!({
+        "cameras": cameras,
+        "warnings": calibration_advice::warnings(&report.outcome),
+    });
     if let Some(stereo) = &report.outcome.stereo {
         let calibration = &stereo.calibration;
         let rotation = calibration
@@ -586,6 +591,9 @@ fn print_human(report: &CalibrateReport) {
             pitch.to_degrees(),
             yaw.to_degrees()
         );
+    }
+    for warning in calibration_advice::warnings(&report.outcome) {
+        eprintln!("warning: {warning}");
     }
     for path in &report.written {
         eprintln!("wrote {}", path.display());
