@@ -1,0 +1,625 @@
+//! A live calibration session: frames are offered one at a time (mono, or a
+//! synchronized stereo pair); each is judged as ROS camera_calibration judges it (the
+//! board found in every camera, not moving, sharp, and adding coverage), the kept
+//! samples are stored on disk after every change, and the session calibrates from them
+//! on request. `calibrate_node` drives it; tests drive it directly.
+
+mod annotate;
+mod coverage;
+mod motion;
+mod sharpness;
+mod store;
+
+use std::path::{Path, PathBuf};
+
+use rayon::prelude::*;
+use stereocal_msgs::builtin_interfaces::Time;
+use stereocal_vision::board::{
+    BoardError, ChessboardDetector, Detection, Gray, Target, TargetDetector,
+};
+use stereocal_vision::calib::View;
+use stereocal_vision::camera::DistortionModel;
+use stereocal_vision::image::Image;
+use thiserror::Error;
+
+use crate::calibration_stage::{
+    CalibrationOutcome, CalibrationStageError, CameraFrames, Frame, FrameCorners, calibrate_camera,
+    calibrate_pair,
+};
+
+pub use annotate::annotate;
+pub use coverage::{
+    ENOUGH_SAMPLES, MONO_RANGES, NOVELTY_DISTANCE, STEREO_RANGES, SampleParams, sample_params,
+};
+pub use motion::{MAX_INTERVAL, board_speed};
+pub use sharpness::{EdgeBlur, edge_blur};
+pub use store::{STORE_FILE, Sample, store_path};
+
+/// Default [`SessionConfig::max_blur`]: edges wider than this (10-90 %, pixels) are
+/// refused. Sharp synthetic and real boards measure 1-3 px; synth's defocused frames
+/// and motion-blurred ones measure well above.
+pub const DEFAULT_MAX_BLUR: f64 = 5.0;
+
+/// One family of edges this many times wider than the other marks the blur as motion
+/// blur rather than defocus.
+const MOTION_BLUR_RATIO: f64 = 1.6;
+
+/// How a session judges frames.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SessionConfig {
+    /// The calibration target.
+    pub target: Target,
+    /// One camera name (mono) or ["left", "right"] (stereo), in the order images are offered.
+    pub cameras: Vec<String>,
+    /// Lens distortion model to calibrate.
+    pub model: DistortionModel,
+    /// Pixels per second of mean corner motion since the previous offered frame (if that
+    /// frame is less than 1 s older); faster boards are refused. <= 0 disables.
+    /// ROS camera_calibration's max_chessboard_speed (which counts pixels per frame).
+    pub max_board_speed: f64,
+    /// Frames whose board edges are wider than this (10-90 % edge width in pixels, the
+    /// wider of the two edge directions; see [`edge_blur`]) are refused. <= 0 disables.
+    pub max_blur: f64,
+}
+
+impl SessionConfig {
+    /// A configuration with board speed unchecked and [`DEFAULT_MAX_BLUR`].
+    pub fn new(target: Target, cameras: Vec<String>, model: DistortionModel) -> Self {
+        Self {
+            target,
+            cameras,
+            model,
+            max_board_speed: 0.0,
+            max_blur: DEFAULT_MAX_BLUR,
+        }
+    }
+}
+
+/// Why a session could not open, judge a frame or store its samples. Each message says
+/// what to do.
+#[derive(Debug, Error)]
+pub enum SessionError {
+    /// The configuration cannot be used.
+    #[error("calibration session: {0}")]
+    Config(String),
+    /// The store exists but cannot be read.
+    #[error("cannot read the calibration session store {path}: {message}")]
+    StoreRead {
+        /// The store file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// The store is not a session store, or is damaged.
+    #[error(
+        "the calibration session store {path} is damaged: {message}; delete it to start a new session, or choose another state_dir"
+    )]
+    StoreDamaged {
+        /// The store file.
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The store holds another session.
+    #[error(
+        "the calibration session store {path} holds samples of {stored}, not of {configured}: reset the session (delete the file) or choose another state_dir"
+    )]
+    StoreMismatch {
+        /// The store file.
+        path: PathBuf,
+        /// The stored target and cameras.
+        stored: String,
+        /// The configured target and cameras.
+        configured: String,
+    },
+    /// The store cannot be written.
+    #[error("cannot write the calibration session store {path}: {message}")]
+    StoreWrite {
+        /// The store file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// A frame came with the wrong number of images.
+    #[error(
+        "offered {offered} images for cameras {cameras:?}: expected one image per camera, in that order"
+    )]
+    ImageCount {
+        /// Images offered.
+        offered: usize,
+        /// The session's cameras.
+        cameras: Vec<String>,
+    },
+    /// An image is malformed.
+    #[error("camera {camera}: {source}")]
+    Image {
+        /// The camera.
+        camera: String,
+        /// What is wrong with the image.
+        source: BoardError,
+    },
+}
+
+/// What the session made of an offered frame.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Verdict {
+    /// Kept as a new sample (and stored).
+    Added,
+    /// Usable, but too close to a kept sample to add coverage.
+    NotNew,
+    /// Not usable; the reason says what to do.
+    Refused(String),
+}
+
+/// The verdict on an offered frame, with what was detected in each camera (in camera
+/// order; `None` where the board was not found).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Offer {
+    /// The verdict.
+    pub verdict: Verdict,
+    /// The board found in each camera.
+    pub detections: Vec<Option<Detection>>,
+}
+
+/// Coverage of one camera, as camera_calibration's progress bars, each in `[0, 1]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CameraCoverage {
+    /// The camera.
+    pub name: String,
+    /// Horizontal spread of the kept views.
+    pub x: f64,
+    /// Vertical spread.
+    pub y: f64,
+    /// Largest board size.
+    pub size: f64,
+    /// Largest skew (tilt).
+    pub skew: f64,
+}
+
+/// Coverage per camera as camera_calibration's progress bars (x, y, size, skew each in
+/// [0, 1]), the number of samples, and whether calibration can start
+/// (camera_calibration's goodenough: every bar full, or [`ENOUGH_SAMPLES`] samples).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Progress {
+    /// Coverage per camera, in camera order.
+    pub cameras: Vec<CameraCoverage>,
+    /// Samples kept.
+    pub samples: usize,
+    /// Whether calibration can start.
+    pub ready: bool,
+}
+
+impl Progress {
+    /// One line for a log or a status topic:
+    /// `12 samples; left: x 80% y 65% size 40% skew 30%; right: ...; collecting`.
+    pub fn status_line(&self) -> String {
+        let mut line = format!(
+            "{} sample{}",
+            self.samples,
+            if self.samples == 1 { "" } else { "s" }
+        );
+        for camera in &self.cameras {
+            line.push_str(&format!(
+                "; {}: x {:.0}% y {:.0}% size {:.0}% skew {:.0}%",
+                camera.name,
+                camera.x * 100.0,
+                camera.y * 100.0,
+                camera.size * 100.0,
+                camera.skew * 100.0
+            ));
+        }
+        line.push_str(if self.ready {
+            "; ready to calibrate"
+        } else {
+            "; collecting: move the board to fill the bars"
+        });
+        line
+    }
+
+    /// The progress as JSON:
+    /// `{"samples": n, "ready": b, "cameras": [{"name", "x", "y", "size", "skew"}]}`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "samples": self.samples,
+            "ready": self.ready,
+            "cameras": self.cameras.iter().map(|c| serde_json::json!({
+                "name": c.name,
+                "x": c.x,
+                "y": c.y,
+                "size": c.size,
+                "skew": c.skew,
+            })).collect::<Vec<_>>(),
+        })
+    }
+}
+
+/// A kept sample with its coverage parameters per camera.
+#[derive(Clone, Debug)]
+struct Kept {
+    sample: Sample,
+    params: Vec<SampleParams>,
+}
+
+/// A calibration session: the kept samples of one target seen by one camera or a
+/// stereo pair, stored in a folder.
+#[derive(Debug)]
+pub struct CalibrationSession {
+    config: SessionConfig,
+    cols: usize,
+    rows: usize,
+    detector: ChessboardDetector,
+    store_path: PathBuf,
+    image_sizes: Option<Vec<(usize, usize)>>,
+    kept: Vec<Kept>,
+    previous: Option<(Time, Vec<Option<Detection>>)>,
+}
+
+impl CalibrationSession {
+    /// Opens (creating) the session stored in `store_dir`, loading the samples an earlier
+    /// run saved there; an error if the store holds another target/cameras (says to reset
+    /// or choose another state_dir), never silently overwritten.
+    pub fn open(config: SessionConfig, store_dir: &Path) -> Result<Self, SessionError> {
+        if config.cameras.is_empty() || config.cameras.len() > 2 {
+            return Err(SessionError::Config(format!(
+                "{} cameras {:?}: expected one camera (mono) or two (stereo: left, right)",
+                config.cameras.len(),
+                config.cameras
+            )));
+        }
+        let Target::Chessboard(board) = config.target else {
+            return Err(SessionError::Config(
+                "only chessboard targets can be detected; use --pattern chessboard".to_owned(),
+            ));
+        };
+        let detector =
+            ChessboardDetector::new(board).map_err(|e| SessionError::Config(e.to_string()))?;
+        let store_path = store_path(store_dir);
+        let mut session = Self {
+            cols: board.cols,
+            rows: board.rows,
+            detector,
+            store_path,
+            image_sizes: None,
+            kept: Vec::new(),
+            previous: None,
+            config,
+        };
+        if let Some(stored) = store::load(&session.store_path)? {
+            if stored.target != session.config.target || stored.cameras != session.config.cameras {
+                return Err(SessionError::StoreMismatch {
+                    path: session.store_path.clone(),
+                    stored: describe(&stored.target, &stored.cameras),
+                    configured: describe(&session.config.target, &session.config.cameras),
+                });
+            }
+            session.image_sizes = stored.image_sizes;
+            for sample in stored.samples {
+                let params = session.params(&sample.detections).ok_or_else(|| {
+                    SessionError::StoreDamaged {
+                        path: session.store_path.clone(),
+                        message: format!(
+                            "the sample at {}.{:09} s does not span a board",
+                            sample.stamp.sec, sample.stamp.nanosec
+                        ),
+                    }
+                })?;
+                session.kept.push(Kept { sample, params });
+            }
+        }
+        Ok(session)
+    }
+
+    /// The session's configuration.
+    pub fn config(&self) -> &SessionConfig {
+        &self.config
+    }
+
+    /// The store file.
+    pub fn store_file(&self) -> &Path {
+        &self.store_path
+    }
+
+    /// Judges one synchronized frame: one image per camera in `cameras` order. Detects the
+    /// target, refuses blurred/moving/partial frames, keeps it when it adds coverage (ROS
+    /// camera_calibration's is_good_sample), and on Added saves the samples atomically
+    /// before returning.
+    ///
+    /// Checks, in order: the board is found whole in every camera; the images have the
+    /// size of the kept samples' images; the board moves no faster than
+    /// `max_board_speed` (measured in the first camera); its edges are no wider than
+    /// `max_blur` in any camera; its view (in the first camera, as camera_calibration
+    /// judges a stereo pair by its left view) is farther than [`NOVELTY_DISTANCE`] from
+    /// every kept one.
+    pub fn offer(&mut self, stamp: Time, images: &[&Image]) -> Result<Offer, SessionError> {
+        if images.len() != self.config.cameras.len() {
+            return Err(SessionError::ImageCount {
+                offered: images.len(),
+                cameras: self.config.cameras.clone(),
+            });
+        }
+        let grays = images
+            .iter()
+            .zip(&self.config.cameras)
+            .map(|(image, camera)| {
+                Gray::from_image(image).map_err(|source| SessionError::Image {
+                    camera: camera.clone(),
+                    source,
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let detections: Vec<Option<Detection>> = grays
+            .par_iter()
+            .map(|gray| self.detector.detect_gray(gray))
+            .collect();
+        let previous = self.previous.replace((stamp, detections.clone()));
+        let verdict = self.judge(stamp, &grays, &detections, previous)?;
+        Ok(Offer {
+            verdict,
+            detections,
+        })
+    }
+
+    fn judge(
+        &mut self,
+        stamp: Time,
+        grays: &[Gray],
+        detections: &[Option<Detection>],
+        previous: Option<(Time, Vec<Option<Detection>>)>,
+    ) -> Result<Verdict, SessionError> {
+        let missing: Vec<&str> = self
+            .config
+            .cameras
+            .iter()
+            .zip(detections)
+            .filter(|(_, d)| d.is_none())
+            .map(|(name, _)| name.as_str())
+            .collect();
+        if !missing.is_empty() {
+            return Ok(Verdict::Refused(format!(
+                "no whole {}x{} board found in {}: keep the whole board in view{}, well lit and in focus",
+                self.cols,
+                self.rows,
+                missing.join(" and "),
+                if self.config.cameras.len() > 1 {
+                    " of both cameras"
+                } else {
+                    ""
+                }
+            )));
+        }
+        let found: Vec<Detection> = detections.iter().flatten().cloned().collect();
+        let sizes: Vec<(usize, usize)> = grays.iter().map(|g| (g.width, g.height)).collect();
+        if let Some(kept) = &self.image_sizes
+            && *kept != sizes
+        {
+            return Ok(Verdict::Refused(format!(
+                "images are {} but the kept samples' are {}: reset the session to calibrate at the new size",
+                sizes_text(&sizes),
+                sizes_text(kept)
+            )));
+        }
+        if self.config.max_board_speed > 0.0
+            && let Some((before, Some(Some(earlier)))) =
+                previous.as_ref().map(|(t, d)| (*t, d.first().cloned()))
+            && let Some(speed) = board_speed(&earlier, before, &found[0], stamp)
+            && speed > self.config.max_board_speed
+        {
+            return Ok(Verdict::Refused(format!(
+                "board moving at {speed:.0} px/s (limit {:.0} px/s): hold the board still",
+                self.config.max_board_speed
+            )));
+        }
+        if self.config.max_blur > 0.0 {
+            for ((gray, detection), camera) in grays.iter().zip(&found).zip(&self.config.cameras) {
+                let Some(blur) = edge_blur(gray, detection, self.cols, self.rows) else {
+                    continue;
+                };
+                if blur.width() > self.config.max_blur {
+                    let advice = if blur.is_directional(MOTION_BLUR_RATIO) {
+                        "motion blur: hold the board still, or shorten the exposure"
+                    } else {
+                        "out of focus: focus the lens, or bring the board into the depth of field"
+                    };
+                    return Ok(Verdict::Refused(format!(
+                        "{camera}: board edges {:.1} px wide (limit {:.1} px), {advice}",
+                        blur.width(),
+                        self.config.max_blur
+                    )));
+                }
+            }
+        }
+        let Some(params) = self.params_at(&found, &sizes) else {
+            return Ok(Verdict::Refused(
+                "the board's outer corners do not span an area: detection failed".to_owned(),
+            ));
+        };
+        let kept: Vec<SampleParams> = self.kept.iter().map(|k| k.params[0]).collect();
+        if !coverage::is_new(&params[0], &kept) {
+            return Ok(Verdict::NotNew);
+        }
+        self.kept.push(Kept {
+            sample: Sample {
+                stamp,
+                detections: found,
+            },
+            params,
+        });
+        self.image_sizes = Some(sizes);
+        if let Err(e) = self.save() {
+            self.kept.pop();
+            if self.kept.is_empty() {
+                self.image_sizes = None;
+            }
+            return Err(e);
+        }
+        Ok(Verdict::Added)
+    }
+
+    /// The number of kept samples.
+    pub fn sample_count(&self) -> usize {
+        self.kept.len()
+    }
+
+    /// The kept samples, in the order they were kept.
+    pub fn samples(&self) -> impl Iterator<Item = &Sample> {
+        self.kept.iter().map(|k| &k.sample)
+    }
+
+    /// Coverage per camera, the number of samples and whether calibration can start.
+    pub fn progress(&self) -> Progress {
+        let ranges = if self.config.cameras.len() > 1 {
+            &STEREO_RANGES
+        } else {
+            &MONO_RANGES
+        };
+        let cameras: Vec<CameraCoverage> = self
+            .config
+            .cameras
+            .iter()
+            .enumerate()
+            .map(|(k, name)| {
+                let params: Vec<SampleParams> = self.kept.iter().map(|s| s.params[k]).collect();
+                let [x, y, size, skew] = coverage::progress(&params, ranges);
+                CameraCoverage {
+                    name: name.clone(),
+                    x,
+                    y,
+                    size,
+                    skew,
+                }
+            })
+            .collect();
+        let full = !self.kept.is_empty()
+            && cameras
+                .iter()
+                .all(|c| [c.x, c.y, c.size, c.skew].iter().all(|&p| p >= 1.0));
+        Progress {
+            ready: self.kept.len() >= ENOUGH_SAMPLES || full,
+            samples: self.kept.len(),
+            cameras,
+        }
+    }
+
+    /// Calibrates from the kept samples (mono or stereo via crate::calibration_stage).
+    pub fn calibrate(&self) -> Result<CalibrationOutcome, CalibrationStageError> {
+        let points = self.config.target.object_points();
+        let frames: Vec<CameraFrames> = self
+            .config
+            .cameras
+            .iter()
+            .enumerate()
+            .map(|(k, name)| {
+                let (width, height) = self
+                    .image_sizes
+                    .as_ref()
+                    .and_then(|s| s.get(k).copied())
+                    .unwrap_or((0, 0));
+                CameraFrames {
+                    name: name.clone(),
+                    width: width as u32,
+                    height: height as u32,
+                    frames: self
+                        .kept
+                        .iter()
+                        .map(|kept| Frame {
+                            stamp: kept.sample.stamp,
+                            corners: view(&kept.sample.detections[k], &points),
+                        })
+                        .collect(),
+                }
+            })
+            .collect();
+        match frames.as_slice() {
+            [left, right] => calibrate_pair(left, right, self.config.model),
+            [camera] => {
+                calibrate_camera(camera, self.config.model).map(|result| CalibrationOutcome {
+                    cameras: vec![result],
+                    stereo: None,
+                })
+            }
+            _ => Err(CalibrationStageError::NoBoardFound {
+                camera: self.config.cameras.join(", "),
+                frames: self.kept.len(),
+            }),
+        }
+    }
+
+    /// Forgets every sample (and the stored copy).
+    pub fn reset(&mut self) -> Result<(), SessionError> {
+        self.kept.clear();
+        self.image_sizes = None;
+        self.previous = None;
+        self.save()
+    }
+
+    /// Writes the kept samples to the store.
+    fn save(&self) -> Result<(), SessionError> {
+        store::save(
+            &self.store_path,
+            &store::StoredSession {
+                target: self.config.target.clone(),
+                cameras: self.config.cameras.clone(),
+                image_sizes: self.image_sizes.clone(),
+                samples: self.kept.iter().map(|k| k.sample.clone()).collect(),
+            },
+        )
+    }
+
+    /// The coverage parameters of a sample's detections at the session's image sizes.
+    fn params(&self, detections: &[Detection]) -> Option<Vec<SampleParams>> {
+        self.params_at(detections, self.image_sizes.as_ref()?)
+    }
+
+    fn params_at(
+        &self,
+        detections: &[Detection],
+        sizes: &[(usize, usize)],
+    ) -> Option<Vec<SampleParams>> {
+        if detections.len() != sizes.len() {
+            return None;
+        }
+        detections
+            .iter()
+            .zip(sizes)
+            .map(|(d, &(w, h))| sample_params(d, self.cols, self.rows, w, h))
+            .collect()
+    }
+}
+
+/// A detection as the calibration stage's view of the target.
+fn view(detection: &Detection, points: &[nalgebra::Point3<f64>]) -> FrameCorners {
+    let points_in_target: Option<Vec<_>> = detection
+        .ids
+        .iter()
+        .map(|&id| points.get(id).copied())
+        .collect();
+    match points_in_target {
+        Some(points_in_target) => FrameCorners::Found(View {
+            points_in_target,
+            pixels: detection.corners.clone(),
+        }),
+        None => FrameCorners::Unusable("detected corner ids outside the board".to_owned()),
+    }
+}
+
+fn describe(target: &Target, cameras: &[String]) -> String {
+    let board = match target {
+        Target::Chessboard(b) => format!(
+            "a {}x{} chessboard of {} m squares",
+            b.cols, b.rows, b.square_size
+        ),
+        Target::Charuco(b) => format!(
+            "a {}x{} ChArUco board of {} m squares",
+            b.squares_x, b.squares_y, b.square_size
+        ),
+    };
+    format!("{board} seen by {cameras:?}")
+}
+
+fn sizes_text(sizes: &[(usize, usize)]) -> String {
+    sizes
+        .iter()
+        .map(|(w, h)| format!("{w}x{h}"))
+        .collect::<Vec<_>>()
+        .join(" and ")
+}
