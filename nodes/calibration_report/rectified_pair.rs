@@ -1,0 +1,256 @@
+//! The rectified pair: one frame's raw images rectified with the calibration, side by
+//! side (one above the other for a vertical rig), with epipolar lines drawn across both
+//! at regular intervals, embedded as a PNG data URI. A mono camera shows its undistorted
+//! image instead.
+
+use base64::Engine;
+use base64::engine::general_purpose::STANDARD;
+use image::ImageEncoder;
+use image::codecs::png::{CompressionType, FilterType, PngEncoder};
+use nalgebra::{Matrix3, Matrix3x4};
+use stereocal_vision::image::{Image, Samples};
+use stereocal_vision::rectify::{RectifyMap, RemapOptions, StereoLayout, remap};
+
+use super::ReportError;
+use super::html::escape;
+use super::sample::{SampleImage, SampleImages};
+use super::views::stamp_text;
+use crate::calibration_stage::{CalibrationOutcome, CameraResult};
+use crate::convert::Encoding;
+
+/// Epipolar lines drawn across a rectified pair.
+pub const EPIPOLAR_LINES: usize = 16;
+/// The epipolar lines' colour, pure green: never a grey pixel of a mono image.
+const LINE: [u8; 3] = [0, 255, 0];
+
+/// An RGB picture with the rows (or columns) where epipolar lines were drawn.
+struct Picture {
+    width: usize,
+    height: usize,
+    rgb: Vec<u8>,
+}
+
+impl Picture {
+    fn new(width: usize, height: usize) -> Self {
+        Self {
+            width,
+            height,
+            rgb: vec![0; width * height * 3],
+        }
+    }
+
+    /// Copies `image` (8-bit RGB, `width` x `height`) with its top-left at `(x, y)`.
+    fn paste(&mut self, rgb: &[u8], width: usize, x: usize, y: usize) {
+        for (r, row) in rgb.chunks_exact(width * 3).enumerate() {
+            let start = ((y + r) * self.width + x) * 3;
+            self.rgb[start..start + row.len()].copy_from_slice(row);
+        }
+    }
+
+    fn row(&mut self, y: usize) {
+        let start = y * self.width * 3;
+        for pixel in self.rgb[start..start + self.width * 3].chunks_exact_mut(3) {
+            pixel.copy_from_slice(&LINE);
+        }
+    }
+
+    fn column(&mut self, x: usize) {
+        for y in 0..self.height {
+            let i = (y * self.width + x) * 3;
+            self.rgb[i..i + 3].copy_from_slice(&LINE);
+        }
+    }
+
+    fn png(&self) -> Result<Vec<u8>, ReportError> {
+        let mut png = Vec::new();
+        PngEncoder::new_with_quality(&mut png, CompressionType::Fast, FilterType::Adaptive)
+            .write_image(
+                &self.rgb,
+                self.width as u32,
+                self.height as u32,
+                image::ExtendedColorType::Rgb8,
+            )?;
+        Ok(png)
+    }
+}
+
+/// Where the lines go along an axis of `length` pixels: [`EPIPOLAR_LINES`] evenly spaced
+/// positions, half a spacing from the edges.
+pub(crate) fn line_positions(length: usize) -> Vec<usize> {
+    let spacing = (length / EPIPOLAR_LINES).max(1);
+    (0..EPIPOLAR_LINES)
+        .map(|k| spacing / 2 + k * spacing)
+        .filter(|&p| p < length)
+        .collect()
+}
+
+/// The rectified pair (stereo) or undistorted image (mono) of `sample`, as an HTML
+/// figure of class `rectified` with the picture's size in `data-width`,
+/// `data-height` and the epipolar lines in `data-epipolar-rows` (horizontal rig) or
+/// `data-epipolar-columns` (vertical rig), space-separated.
+pub(crate) fn figure(
+    outcome: &CalibrationOutcome,
+    sample: &SampleImages,
+) -> Result<String, ReportError> {
+    if sample.images.len() != outcome.cameras.len() {
+        return Err(ReportError::Sample(format!(
+            "{} images for {} cameras",
+            sample.images.len(),
+            outcome.cameras.len()
+        )));
+    }
+    let stamp = stamp_text(&sample.stamp);
+    let (picture, lines, caption) = match (
+        &outcome.stereo,
+        outcome.cameras.as_slice(),
+        sample.images.as_slice(),
+    ) {
+        (Some(stereo), [left, right], [left_image, right_image]) => {
+            let r = &stereo.rectification;
+            let (width, height) = (r.image_size.0 as usize, r.image_size.1 as usize);
+            let left_rgb = rectified_rgb(
+                left,
+                left_image,
+                r.left_rectified_from_original.matrix(),
+                &r.left_projection,
+                (width, height),
+            )?;
+            let right_rgb = rectified_rgb(
+                right,
+                right_image,
+                r.right_rectified_from_original.matrix(),
+                &r.right_projection,
+                (width, height),
+            )?;
+            match r.layout {
+                StereoLayout::Horizontal => {
+                    let mut picture = Picture::new(2 * width, height);
+                    picture.paste(&left_rgb, width, 0, 0);
+                    picture.paste(&right_rgb, width, width, 0);
+                    let rows = line_positions(height);
+                    rows.iter().for_each(|&y| picture.row(y));
+                    (
+                        picture,
+                        format!(" data-epipolar-rows=\"{}\"", join(&rows)),
+                        format!(
+                            "Frame {stamp}, left and right rectified with the calibration. Green: every {}th row; a corner should sit at the same height in both images.",
+                            height / EPIPOLAR_LINES
+                        ),
+                    )
+                }
+                StereoLayout::Vertical => {
+                    let mut picture = Picture::new(width, 2 * height);
+                    picture.paste(&left_rgb, width, 0, 0);
+                    picture.paste(&right_rgb, width, 0, height);
+                    let columns = line_positions(width);
+                    columns.iter().for_each(|&x| picture.column(x));
+                    (
+                        picture,
+                        format!(" data-epipolar-columns=\"{}\"", join(&columns)),
+                        format!(
+                            "Frame {stamp}, first (top) and second (bottom) camera rectified with the calibration. Green: every {}th column; a corner should sit in the same column in both images.",
+                            width / EPIPOLAR_LINES
+                        ),
+                    )
+                }
+            }
+        }
+        (None, [camera], [image]) => {
+            let model = &camera.calibration.camera;
+            let (width, height) = (model.width as usize, model.height as usize);
+            let projection = model.intrinsics.matrix().insert_column(3, 0.0);
+            let rgb = rectified_rgb(
+                camera,
+                image,
+                &Matrix3::identity(),
+                &projection,
+                (width, height),
+            )?;
+            let mut picture = Picture::new(width, height);
+            picture.paste(&rgb, width, 0, 0);
+            (
+                picture,
+                String::new(),
+                format!(
+                    "Frame {stamp} undistorted with the calibration (same camera matrix): the board's edges should be straight."
+                ),
+            )
+        }
+        _ => {
+            return Err(ReportError::Sample(
+                "a sample needs one image per camera of a mono or stereo calibration".to_owned(),
+            ));
+        }
+    };
+    let png = picture.png()?;
+    Ok(format!(
+        "<figure class=\"rectified\" data-width=\"{}\" data-height=\"{}\"{lines}><img class=\"picture\" alt=\"rectified images\" width=\"{}\" height=\"{}\" src=\"data:image/png;base64,{}\"><figcaption>{}</figcaption></figure>\n",
+        picture.width,
+        picture.height,
+        picture.width,
+        picture.height,
+        STANDARD.encode(&png),
+        escape(&caption)
+    ))
+}
+
+fn join(values: &[usize]) -> String {
+    values
+        .iter()
+        .map(usize::to_string)
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// `sample` remapped through the map of `camera` with `rectified_from_original` (camera_info
+/// `R`) and `projection` (`P`) at `size`, as 8-bit RGB.
+fn rectified_rgb(
+    camera: &CameraResult,
+    sample: &SampleImage,
+    rectified_from_original: &Matrix3<f64>,
+    projection: &Matrix3x4<f64>,
+    size: (usize, usize),
+) -> Result<Vec<u8>, ReportError> {
+    let model = &camera.calibration.camera;
+    let image = &sample.image;
+    if (image.width, image.height) != (model.width as usize, model.height as usize) {
+        return Err(ReportError::Sample(format!(
+            "the {} image is {}x{}, the calibration {}x{}",
+            camera.name, image.width, image.height, model.width, model.height
+        )));
+    }
+    let map = RectifyMap::new(model, rectified_from_original, projection, size.0, size.1).map_err(
+        |source| ReportError::Map {
+            camera: camera.name.clone(),
+            source,
+        },
+    )?;
+    let rectified =
+        remap(image, &map, RemapOptions::default()).map_err(|source| ReportError::Remap {
+            camera: camera.name.clone(),
+            source,
+        })?;
+    Ok(rgb(&rectified, sample.encoding))
+}
+
+/// An image of `encoding` as 8-bit RGB (16-bit samples keep their high byte, alpha is
+/// dropped).
+fn rgb(image: &Image, encoding: Encoding) -> Vec<u8> {
+    let channels = image.channels.max(1);
+    let bytes: Vec<u8> = match &image.samples {
+        Samples::U8(v) => v.clone(),
+        Samples::U16(v) => v.iter().map(|s| (s >> 8) as u8).collect(),
+    };
+    let mut out = Vec::with_capacity(image.width * image.height * 3);
+    for pixel in bytes.chunks_exact(channels) {
+        match (encoding, pixel) {
+            (Encoding::Bgr8 | Encoding::Bgra8, [b, g, r, ..]) => {
+                out.extend_from_slice(&[*r, *g, *b])
+            }
+            (_, [r, g, b, ..]) => out.extend_from_slice(&[*r, *g, *b]),
+            (_, [grey, ..]) => out.extend_from_slice(&[*grey, *grey, *grey]),
+            (_, []) => {}
+        }
+    }
+    out
+}
