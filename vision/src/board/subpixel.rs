@@ -157,6 +157,8 @@ struct Resampler {
     k: usize,
     taps_x: Vec<f64>,
     taps_y: Vec<f64>,
+    /// One image row of the kernel's span, as `f64`.
+    line: Vec<f64>,
     rows: Vec<f64>,
     out: Vec<f64>,
 }
@@ -171,6 +173,7 @@ impl Resampler {
             k,
             taps_x: vec![0.0; 2 * k + 2],
             taps_y: vec![0.0; 2 * k + 2],
+            line: vec![0.0; side + 2 * k + 1],
             rows: vec![0.0; (side + 2 * k + 1) * side],
             out: vec![0.0; side * side],
         }
@@ -205,24 +208,27 @@ impl Resampler {
         Self::taps(self.sigma, self.k, centre.x - nx as f64, &mut self.taps_x);
         Self::taps(self.sigma, self.k, centre.y - ny as f64, &mut self.taps_y);
         let (x0, y0) = (x0 as usize, y0 as usize);
+        // Each output accumulates its taps in ascending order, as a dot product
+        // would, but the loops run across outputs so that they vectorize.
         for (row, out_row) in self.rows.chunks_exact_mut(side).enumerate() {
             let pixels = &gray.data[(y0 + row) * gray.width + x0..][..span];
-            for (col, value) in out_row.iter_mut().enumerate() {
-                *value = pixels[col..col + self.taps_x.len()]
-                    .iter()
-                    .zip(&self.taps_x)
-                    .map(|(&p, t)| p as f64 * t)
-                    .sum();
+            for (value, &p) in self.line.iter_mut().zip(pixels) {
+                *value = p as f64;
+            }
+            out_row.fill(0.0);
+            for (t, &tap) in self.taps_x.iter().enumerate() {
+                for (value, &p) in out_row.iter_mut().zip(&self.line[t..t + side]) {
+                    *value += p * tap;
+                }
             }
         }
         for (row, out_row) in self.out.chunks_exact_mut(side).enumerate() {
-            for (col, value) in out_row.iter_mut().enumerate() {
-                *value = self
-                    .taps_y
-                    .iter()
-                    .enumerate()
-                    .map(|(t, tap)| self.rows[(row + t) * side + col] * tap)
-                    .sum();
+            out_row.fill(0.0);
+            for (t, &tap) in self.taps_y.iter().enumerate() {
+                let above = &self.rows[(row + t) * side..][..side];
+                for (value, &p) in out_row.iter_mut().zip(above) {
+                    *value += p * tap;
+                }
             }
         }
         Some(&self.out)
