@@ -18,6 +18,7 @@ use super::error::{Result, RuntimeError};
 use super::logging::{self, LogConfig};
 use super::names::NodeIdentity;
 use super::params::{ParamSpec, startup_params, type_name};
+use super::service::{self, ServiceClient, ServiceServer};
 use super::shutdown::Shutdown;
 use super::transport::{TransportConfig, TransportError};
 
@@ -375,6 +376,28 @@ impl RosNode {
             .map_err(|e| middleware(&format!("publisher on {resolved}"), e))?;
         log::debug!("publishing {resolved} ({})", M::TYPE_NAME);
         Ok(publisher)
+    }
+
+    /// Serves service `name` (resolved for this node, e.g. `~/calibrate`).
+    pub fn create_server<Req, Resp>(&mut self, name: &str) -> Result<ServiceServer<Req, Resp>>
+    where
+        Req: RosMessage + Serialize + DeserializeOwned + Clone + 'static,
+        Resp: RosMessage + Serialize + DeserializeOwned + 'static,
+    {
+        let resolved = self.resolve_topic(name)?;
+        let server = service::create_server(self.node_mut()?, &resolved)?;
+        log::debug!("serving {resolved}");
+        Ok(server)
+    }
+
+    /// A client of service `name` (resolved for this node).
+    pub fn create_client<Req, Resp>(&mut self, name: &str) -> Result<ServiceClient<Req, Resp>>
+    where
+        Req: RosMessage + Serialize + DeserializeOwned + Clone + 'static,
+        Resp: RosMessage + Serialize + DeserializeOwned + 'static,
+    {
+        let resolved = self.resolve_topic(name)?;
+        service::create_client(self.node_mut()?, &resolved)
     }
 }
 
