@@ -26,6 +26,7 @@ use stereocal_vision::camera::DistortionModel;
 
 use crate::bag::{BagReader, TopicFilter};
 use crate::calibration_advice;
+use crate::calibration_report::{ReportInputs, read_sample, sample_stamp, write_report};
 use crate::calibration_stage::{
     CalibrationOutcome, CameraFrames, CameraResult, Frame, FrameCorners, calibrate_camera,
     calibrate_pair,
@@ -87,6 +88,8 @@ pub struct CalibrateReport {
     pub topics: Vec<String>,
     /// Files written.
     pub written: Vec<PathBuf>,
+    /// The calibration report, `<out>/report.html`.
+    pub report: PathBuf,
     /// Wall time of the whole run.
     pub elapsed: Duration,
 }
@@ -111,8 +114,9 @@ pub fn run(args: &CalibrateArgs) -> anyhow::Result<()> {
 
 /// Calibrates the camera or stereo pair of `args.bag` and writes `<out>/<name>.yaml`
 /// (mono) or `<out>/left.yaml`, `<out>/right.yaml` and `<out>/stereo.yaml` (stereo),
-/// each atomically. `progress` counts images searched; pass [`ProgressBar::hidden`]
-/// for none.
+/// and the report `<out>/report.html` (its rectified pair is the first pair used, read
+/// back from the bag), each atomically. `progress` counts images searched; pass
+/// [`ProgressBar::hidden`] for none.
 pub fn calibrate_bag(
     args: &CalibrateArgs,
     progress: &ProgressBar,
@@ -151,10 +155,23 @@ pub fn calibrate_bag(
         _ => bail!("expected one or two cameras, got {}", frames.len()),
     };
     let written = write_results(&outcome, &args.out)?;
+    let topics: Vec<String> = cameras.into_iter().map(|(_, topic)| topic).collect();
+    let sample = match sample_stamp(&outcome) {
+        Some(stamp) => read_sample(&reader, &topics, stamp)?,
+        None => None,
+    };
+    let report = args.out.join("report.html");
+    let inputs = ReportInputs {
+        outcome: &outcome,
+        frames: &frames,
+        sample: sample.as_ref(),
+    };
+    write_report(&report, &inputs).context("making the calibration report")?;
     Ok(CalibrateReport {
         outcome,
-        topics: cameras.into_iter().map(|(_, topic)| topic).collect(),
+        topics,
         written,
+        report,
         elapsed: started.elapsed(),
     })
 }
@@ -598,5 +615,6 @@ fn print_human(report: &CalibrateReport) {
     for path in &report.written {
         eprintln!("wrote {}", path.display());
     }
+    println!("report: {}", report.report.display());
     eprintln!("done in {:.2} s", report.elapsed.as_secs_f64());
 }
