@@ -3,9 +3,10 @@
 //! pipeline stages that nodes and the offline CLI share.
 
 pub mod bag;
+pub mod calibrate_node;
 pub mod calibration_advice;
-pub mod calibration_session;
 pub mod calibration_report;
+pub mod calibration_session;
 pub mod calibration_stage;
 pub mod cli;
 pub mod convert;

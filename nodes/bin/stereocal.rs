@@ -39,6 +39,13 @@ enum NodeCommand {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         args: Vec<String>,
     },
+    /// The calibrate node: collects samples from `image` (or `left/image` and
+    /// `right/image`), calibrates and commits on `~/calibrate` and `~/commit`.
+    Calibrate {
+        /// ROS arguments, as for the `calibrate_node` executable.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
 }
 
 fn main() -> anyhow::Result<()> {
@@ -51,5 +58,8 @@ fn main() -> anyhow::Result<()> {
         Command::Node {
             node: NodeCommand::Rectify { args },
         } => stereocal::rectify_node::run(args),
+        Command::Node {
+            node: NodeCommand::Calibrate { args },
+        } => stereocal::calibrate_node::run(args),
     }
 }

@@ -224,7 +224,7 @@ mod tests {
         let border = 15000f64.sqrt();
         assert!((p.x - (175.0 - border / 2.0) / (640.0 - border)).abs() < 1e-12);
         assert!((p.y - (250.0 - border / 2.0) / (480.0 - border)).abs() < 1e-12);
-        assert!((p.size - (15000.0 / (640.0 * 480.0)).sqrt()).abs() < 1e-12);
+        assert!((p.size - (15000.0f64 / (640.0 * 480.0)).sqrt()).abs() < 1e-12);
         assert!(p.skew.abs() < 1e-12);
         assert!((p.x - 0.219_820_4).abs() < 1e-6, "{}", p.x);
     }

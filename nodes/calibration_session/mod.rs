@@ -376,7 +376,7 @@ impl CalibrationSession {
             .collect();
         if !missing.is_empty() {
             return Ok(Verdict::Refused(format!(
-                "no whole {}x{} board found in {}: keep the whole board in view{}, well lit and in focus",
+                "no whole {}x{} board found in {}: keep the whole board in view{}, well lit and in focus, and hold it still",
                 self.cols,
                 self.rows,
                 missing.join(" and "),
