@@ -4,6 +4,7 @@
 //! ```text
 //! calib_timing detect --size 9x6 [--repeats N] [--threads N] [--corners out.json] image.png...
 //! calib_timing mono --corners corners.json [--repeats N] [--threads N]
+//! calib_timing stereo --corners corners.json [--repeats N] [--threads N]
 //! ```
 //!
 //! `detect` decodes every image first (decoding is not timed), then detects the board
@@ -11,8 +12,11 @@
 //! images spread over a pool of that many threads (0: one per core). It prints JSON:
 //! the median over the repeats of the time per image, and which images had the board.
 //! `--corners` writes the corners found (pixel centres at integer coordinates) with
-//! the board's points, the input of `mono`. `mono` times `calibrate_mono` (plumb_bob,
-//! every view kept, as cv2.calibrateCamera) on each camera's views of such a file.
+//! the board's points (in squares), the input of `mono` and `stereo`. Images are named
+//! `<camera>_<frame>`. `mono` times `calibrate_mono` (plumb_bob, every view kept, as
+//! cv2.calibrateCamera) on each camera's views of such a file; `stereo` times
+//! `calibrate_stereo` with those intrinsics held (as cv2.stereoCalibrate with
+//! CALIB_FIX_INTRINSIC, every pair kept) on the frames found by `left` and `right`.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -22,8 +26,10 @@ use anyhow::{Context, Result, anyhow, bail};
 use nalgebra::{Point2, Point3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
-use stereocal_vision::board::{self, ChessboardDetector, Gray, Target, TargetDetector};
-use stereocal_vision::calib::{MonoOptions, View, calibrate_mono};
+use stereocal_vision::board::{self, ChessboardDetector, Gray, TargetDetector};
+use stereocal_vision::calib::{
+    MonoOptions, StereoOptions, StereoView, View, calibrate_mono, calibrate_stereo,
+};
 use stereocal_vision::camera::DistortionModel;
 
 /// Corners of a set of images, keyed by image file stem; `None` where the board was
@@ -48,7 +54,7 @@ fn parse_args() -> Result<Args> {
     let mut raw = std::env::args().skip(1);
     let command = raw
         .next()
-        .ok_or_else(|| anyhow!("expected a command: detect or mono"))?;
+        .ok_or_else(|| anyhow!("expected a command: detect, mono or stereo"))?;
     let mut args = Args {
         command,
         size: None,
@@ -121,9 +127,6 @@ fn detect(args: &Args, pool: &rayon::ThreadPool) -> Result<()> {
         per_image.push(start.elapsed().as_secs_f64() / grays.len() as f64);
     }
     if let Some(path) = &args.corners {
-        let Target::Chessboard(_) = detector.target() else {
-            bail!("a chessboard detector has a chessboard target");
-        };
         let images = args
             .images
             .iter()
@@ -165,7 +168,8 @@ fn detect(args: &Args, pool: &rayon::ThreadPool) -> Result<()> {
     Ok(())
 }
 
-fn mono(args: &Args, pool: &rayon::ThreadPool) -> Result<()> {
+/// The corners file of `--corners`, and its board's points.
+fn read_corners(args: &Args) -> Result<(Corners, Vec<Point3<f64>>)> {
     let path = args
         .corners
         .as_ref()
@@ -173,42 +177,110 @@ fn mono(args: &Args, pool: &rayon::ThreadPool) -> Result<()> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let corners: Corners = serde_json::from_str(&text)?;
-    let points: Vec<Point3<f64>> = corners
+    let points = corners
         .object_points
         .iter()
         .map(|p| Point3::new(p[0], p[1], p[2]))
         .collect();
-    // One camera per image-name prefix before the last '_' (`left_003`, `right_003`).
-    let mut cameras: BTreeMap<String, Vec<View>> = BTreeMap::new();
+    Ok((corners, points))
+}
+
+/// Each camera's found views by frame: image `left_003` is frame `003` of `left`.
+fn views_by_camera(
+    corners: &Corners,
+    points: &[Point3<f64>],
+) -> BTreeMap<String, BTreeMap<String, View>> {
+    let mut cameras: BTreeMap<String, BTreeMap<String, View>> = BTreeMap::new();
     for (name, found) in &corners.images {
         let Some(found) = found else { continue };
-        let camera = name.rsplit_once('_').map_or(name.as_str(), |(c, _)| c);
-        cameras.entry(camera.to_owned()).or_default().push(View {
-            points_in_target: points.clone(),
-            pixels: found.iter().map(|p| Point2::new(p[0], p[1])).collect(),
-        });
+        let (camera, frame) = name.rsplit_once('_').unwrap_or((name.as_str(), ""));
+        cameras.entry(camera.to_owned()).or_default().insert(
+            frame.to_owned(),
+            View {
+                points_in_target: points.to_vec(),
+                pixels: found.iter().map(|p| Point2::new(p[0], p[1])).collect(),
+            },
+        );
     }
-    let options = MonoOptions {
+    cameras
+}
+
+/// OpenCV's calibrateCamera defaults: plumb_bob, every view kept.
+fn mono_options() -> MonoOptions {
+    MonoOptions {
         rejection: None,
         ..MonoOptions::new(DistortionModel::PlumbBob)
-    };
+    }
+}
+
+/// Median seconds of `repeats` runs of `solve`, and the RMS of the last.
+fn time_solve<F>(pool: &rayon::ThreadPool, repeats: usize, solve: F) -> Result<(f64, f64)>
+where
+    F: Fn() -> Result<f64> + Sync,
+{
+    let mut seconds = Vec::new();
+    let mut rms = 0.0;
+    for _ in 0..repeats {
+        let start = Instant::now();
+        rms = pool.install(&solve)?;
+        seconds.push(start.elapsed().as_secs_f64());
+    }
+    Ok((median(seconds), rms))
+}
+
+fn mono(args: &Args, pool: &rayon::ThreadPool) -> Result<()> {
+    let (corners, points) = read_corners(args)?;
     let [width, height] = corners.image_size;
+    let options = mono_options();
     let mut report = serde_json::Map::new();
-    for (camera, views) in &cameras {
-        let mut seconds = Vec::new();
-        let mut rms = 0.0;
-        for _ in 0..args.repeats {
-            let start = Instant::now();
-            let result = pool.install(|| calibrate_mono(views, width, height, &options))?;
-            seconds.push(start.elapsed().as_secs_f64());
-            rms = result.rms;
-        }
+    for (camera, views) in views_by_camera(&corners, &points) {
+        let views: Vec<View> = views.into_values().collect();
+        let (seconds, rms) = time_solve(pool, args.repeats, || {
+            Ok(calibrate_mono(&views, width, height, &options)?.rms)
+        })?;
         report.insert(
-            camera.clone(),
-            serde_json::json!({"views": views.len(), "seconds": median(seconds), "rms": rms}),
+            camera,
+            serde_json::json!({"views": views.len(), "seconds": seconds, "rms": rms}),
         );
     }
     println!("{}", serde_json::Value::Object(report));
+    Ok(())
+}
+
+fn stereo(args: &Args, pool: &rayon::ThreadPool) -> Result<()> {
+    let (corners, points) = read_corners(args)?;
+    let [width, height] = corners.image_size;
+    let cameras = views_by_camera(&corners, &points);
+    let (Some(left), Some(right)) = (cameras.get("left"), cameras.get("right")) else {
+        bail!("the corners file has no left_* and right_* images");
+    };
+    let options = mono_options();
+    let intrinsics = |views: &BTreeMap<String, View>| {
+        let views: Vec<View> = views.values().cloned().collect();
+        calibrate_mono(&views, width, height, &options).map(|c| c.camera)
+    };
+    let (left_camera, right_camera) = (intrinsics(left)?, intrinsics(right)?);
+    let pairs: Vec<StereoView> = left
+        .iter()
+        .filter_map(|(frame, l)| {
+            right.get(frame).map(|r| StereoView {
+                points_in_target: points.clone(),
+                left: l.pixels.clone(),
+                right: r.pixels.clone(),
+            })
+        })
+        .collect();
+    let fixed = StereoOptions {
+        rejection: None,
+        ..StereoOptions::default()
+    };
+    let (seconds, rms) = time_solve(pool, args.repeats, || {
+        Ok(calibrate_stereo(&left_camera, &right_camera, &pairs, &fixed)?.rms)
+    })?;
+    println!(
+        "{}",
+        serde_json::json!({"pairs": pairs.len(), "seconds": seconds, "rms": rms})
+    );
     Ok(())
 }
 
@@ -220,6 +292,7 @@ fn main() -> Result<()> {
     match args.command.as_str() {
         "detect" => detect(&args, &pool),
         "mono" => mono(&args, &pool),
-        other => bail!("unknown command {other}: expected detect or mono"),
+        "stereo" => stereo(&args, &pool),
+        other => bail!("unknown command {other}: expected detect, mono or stereo"),
     }
 }

@@ -95,6 +95,40 @@ pub fn refine_corner(
     half: usize,
     window: &SubpixelWindow,
 ) -> Option<Point2<f64>> {
+    #[cfg(target_arch = "x86_64")]
+    if std::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU supports AVX2.
+        return unsafe { refine_corner_avx2(gray, start, half, window) };
+    }
+    refine(gray, start, half, window)
+}
+
+/// [`refine`] compiled for AVX2: four doubles per instruction instead of two. The
+/// arithmetic is the same IEEE operations (no fused multiply-add), so the result is
+/// identical.
+///
+/// # Safety
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn refine_corner_avx2(
+    gray: &Gray,
+    start: Point2<f64>,
+    half: usize,
+    window: &SubpixelWindow,
+) -> Option<Point2<f64>> {
+    refine(gray, start, half, window)
+}
+
+/// The body of [`refine_corner`]. Its loops run across the window's columns, free of
+/// branches, so that the compiler vectorizes them.
+#[inline(always)]
+fn refine(
+    gray: &Gray,
+    start: Point2<f64>,
+    half: usize,
+    window: &SubpixelWindow,
+) -> Option<Point2<f64>> {
     let side = 2 * half + 1;
     // Gaussian weights falling to exp(-1) at the window's edge, as cornerSubPix.
     let weights: Vec<f64> = (0..side)
@@ -103,31 +137,44 @@ pub fn refine_corner(
             (-t * t).exp()
         })
         .collect();
+    let offsets: Vec<f64> = (0..side).map(|i| i as f64 - half as f64).collect();
     let (min_sigma, max_sigma) = window.sigma_range;
     let sigma = (window.sigma_fraction * half as f64).clamp(min_sigma, max_sigma);
     let mut resampler = Resampler::new(sigma, half + 1);
     let sampled = side + 2;
+    // Per column of the window, sums over its rows of the weighted moments
+    // gx gx, gx gy, gy gy, and of the right-hand sides.
+    let mut columns = vec![[0.0f64; 5]; side];
     let mut q = start;
     for _ in 0..window.max_iterations {
         let patch = resampler.sample(gray, q)?;
-        let (mut a, mut b, mut c, mut bb1, mut bb2) = (0.0, 0.0, 0.0, 0.0, 0.0);
-        for (row, wy) in weights.iter().enumerate() {
-            let py = row as f64 - half as f64;
+        columns.fill([0.0; 5]);
+        for (row, (&wy, &py)) in weights.iter().zip(&offsets).enumerate() {
             let line = (row + 1) * sampled;
-            for (col, wx) in weights.iter().enumerate() {
-                let px = col as f64 - half as f64;
-                let at = line + col + 1;
-                let gx = patch[at + 1] - patch[at - 1];
-                let gy = patch[at + sampled] - patch[at - sampled];
-                let w = wx * wy;
+            let left = &patch[line..][..side];
+            let right = &patch[line + 2..][..side];
+            let above = &patch[line - sampled + 1..][..side];
+            let below = &patch[line + sampled + 1..][..side];
+            for col in 0..side {
+                let gx = right[col] - left[col];
+                let gy = below[col] - above[col];
+                let w = weights[col] * wy;
+                let px = offsets[col];
                 let (gxx, gxy, gyy) = (gx * gx * w, gx * gy * w, gy * gy * w);
-                a += gxx;
-                b += gxy;
-                c += gyy;
-                bb1 += gxx * px + gxy * py;
-                bb2 += gxy * px + gyy * py;
+                let sums = &mut columns[col];
+                sums[0] += gxx;
+                sums[1] += gxy;
+                sums[2] += gyy;
+                sums[3] += gxx * px + gxy * py;
+                sums[4] += gxy * px + gyy * py;
             }
         }
+        let [a, b, c, bb1, bb2] = columns.iter().fold([0.0; 5], |mut total, sums| {
+            for (t, s) in total.iter_mut().zip(sums) {
+                *t += s;
+            }
+            total
+        });
         let det = a * c - b * b;
         if det.abs() <= f64::EPSILON * (a * c).abs().max(1.0) {
             return None;
@@ -157,8 +204,11 @@ struct Resampler {
     k: usize,
     taps_x: Vec<f64>,
     taps_y: Vec<f64>,
-    /// One image row of the kernel's span, as `f64`.
+    /// Outputs per row, rounded up to whole blocks of [`Resampler::BLOCK`].
+    width: usize,
+    /// One image row of the kernel's span, as `f64`, zero beyond the span.
     line: Vec<f64>,
+    /// The image filtered along rows, `width` per row.
     rows: Vec<f64>,
     out: Vec<f64>,
 }
@@ -167,17 +217,22 @@ impl Resampler {
     fn new(sigma: f64, r: usize) -> Self {
         let k = (3.0 * sigma).ceil().max(1.0) as usize;
         let side = 2 * r + 1;
+        let width = side.div_ceil(Self::BLOCK) * Self::BLOCK;
         Self {
             sigma,
             r,
             k,
             taps_x: vec![0.0; 2 * k + 2],
             taps_y: vec![0.0; 2 * k + 2],
-            line: vec![0.0; side + 2 * k + 1],
-            rows: vec![0.0; (side + 2 * k + 1) * side],
+            width,
+            line: vec![0.0; width + 2 * k + 1],
+            rows: vec![0.0; (side + 2 * k + 1) * width],
             out: vec![0.0; side * side],
         }
     }
+
+    /// Outputs computed together, their sums held in registers.
+    const BLOCK: usize = 8;
 
     /// Taps for pixels `floor(c) - k ..= floor(c) + k + 1` around position `c`.
     fn taps(sigma: f64, k: usize, phase: f64, taps: &mut [f64]) {
@@ -193,6 +248,7 @@ impl Resampler {
 
     /// The `(2 r + 1)^2` samples around `centre`, row after row; `None` when the
     /// kernel would leave the image.
+    #[inline(always)]
     fn sample(&mut self, gray: &Gray, centre: Point2<f64>) -> Option<&[f64]> {
         if !(centre.x.is_finite() && centre.y.is_finite()) {
             return None;
@@ -209,26 +265,35 @@ impl Resampler {
         Self::taps(self.sigma, self.k, centre.y - ny as f64, &mut self.taps_y);
         let (x0, y0) = (x0 as usize, y0 as usize);
         // Each output accumulates its taps in ascending order, as a dot product
-        // would, but the loops run across outputs so that they vectorize.
-        for (row, out_row) in self.rows.chunks_exact_mut(side).enumerate() {
+        // would, but a block of outputs at a time so that the loops vectorize.
+        const B: usize = Resampler::BLOCK;
+        let width = self.width;
+        for (row, filtered) in self.rows.chunks_exact_mut(width).enumerate() {
             let pixels = &gray.data[(y0 + row) * gray.width + x0..][..span];
             for (value, &p) in self.line.iter_mut().zip(pixels) {
                 *value = p as f64;
             }
-            out_row.fill(0.0);
-            for (t, &tap) in self.taps_x.iter().enumerate() {
-                for (value, &p) in out_row.iter_mut().zip(&self.line[t..t + side]) {
-                    *value += p * tap;
+            for (block, out) in filtered.chunks_exact_mut(B).enumerate() {
+                let mut sums = [0.0; B];
+                for (t, &tap) in self.taps_x.iter().enumerate() {
+                    let line = &self.line[block * B + t..][..B];
+                    for (sum, &p) in sums.iter_mut().zip(line) {
+                        *sum += p * tap;
+                    }
                 }
+                out.copy_from_slice(&sums);
             }
         }
         for (row, out_row) in self.out.chunks_exact_mut(side).enumerate() {
-            out_row.fill(0.0);
-            for (t, &tap) in self.taps_y.iter().enumerate() {
-                let above = &self.rows[(row + t) * side..][..side];
-                for (value, &p) in out_row.iter_mut().zip(above) {
-                    *value += p * tap;
+            for (block, out) in out_row.chunks_mut(B).enumerate() {
+                let mut sums = [0.0; B];
+                for (t, &tap) in self.taps_y.iter().enumerate() {
+                    let above = &self.rows[(row + t) * width + block * B..][..B];
+                    for (sum, &p) in sums.iter_mut().zip(above) {
+                        *sum += p * tap;
+                    }
                 }
+                out.copy_from_slice(&sums[..out.len()]);
             }
         }
         Some(&self.out)
