@@ -2,6 +2,7 @@
 //! types of stereocal-msgs, with the Enhanced RPC-over-DDS mapping that rclcpp uses and
 //! rclcpp's default service QoS.
 
+use std::future::Future;
 use std::time::{Duration, Instant};
 
 use ros2_client::qos::{History, QosProfile, WhenFull};
@@ -12,7 +13,7 @@ use stereocal_msgs::RosMessage;
 
 use super::error::{Result, RuntimeError};
 
-/// How often a waiting [`call`] looks for the response.
+/// How often [`call`] and [`wait_for_server`] look again.
 const POLL_PERIOD: Duration = Duration::from_millis(5);
 
 /// A request or response as ros2-client's service endpoints carry it: the message
@@ -95,10 +96,9 @@ where
     .map_err(|e| RuntimeError::Middleware(format!("service client {name}: {e}")))
 }
 
-/// Sends `request` and waits up to `timeout` for its response; `None` when none came
-/// (no server, or it did not answer in time). The request is sent again every second
-/// while no answer came, since a request written before the server's reader matched
-/// the client's writer is lost.
+/// Sends `request` once and waits up to `timeout` for its response; `None` when none
+/// came (no server, or it did not answer in time). A request sent before the server's
+/// reader matched this client is lost: see [`wait_for_server`].
 pub fn call<Req, Resp>(
     client: &ServiceClient<Req, Resp>,
     request: &Req,
@@ -109,27 +109,47 @@ where
     Resp: Serialize + DeserializeOwned + 'static,
 {
     let deadline = Instant::now() + timeout;
-    let mut sent = Vec::new();
-    let mut resend_at = Instant::now();
+    let id = client
+        .send_request(Srv(request.clone()))
+        .map_err(|e| RuntimeError::Middleware(format!("service request: {e:?}")))?;
     loop {
-        let now = Instant::now();
-        if now >= resend_at {
-            let id = client
-                .send_request(Srv(request.clone()))
-                .map_err(|e| RuntimeError::Middleware(format!("service request: {e:?}")))?;
-            sent.push(id);
-            resend_at = now + Duration::from_secs(1);
-        }
-        while let Some((id, Srv(response))) = client
+        while let Some((answered, Srv(response))) = client
             .receive_response()
             .map_err(|e| RuntimeError::Middleware(format!("service response: {e}")))?
         {
-            if sent.contains(&id) {
+            if answered == id {
                 return Ok(Some(response));
             }
         }
         if Instant::now() >= deadline {
             return Ok(None);
+        }
+        std::thread::sleep(POLL_PERIOD);
+    }
+}
+
+/// Waits up to `timeout` until a server of `client`'s service has matched it (its
+/// request reader and response writer); `node` is the client's node, whose spinner must
+/// be running. Whether one did.
+pub fn wait_for_server<Req, Resp>(
+    node: &Node,
+    client: &ServiceClient<Req, Resp>,
+    timeout: Duration,
+) -> bool
+where
+    Req: Serialize + DeserializeOwned + 'static,
+    Resp: Serialize + DeserializeOwned + 'static,
+{
+    let deadline = Instant::now() + timeout;
+    let mut wait = std::pin::pin!(client.wait_for_service(node));
+    let waker = futures::task::noop_waker();
+    let mut context = std::task::Context::from_waker(&waker);
+    loop {
+        if wait.as_mut().poll(&mut context).is_ready() {
+            return true;
+        }
+        if Instant::now() >= deadline {
+            return false;
         }
         std::thread::sleep(POLL_PERIOD);
     }
