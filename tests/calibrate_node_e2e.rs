@@ -1,0 +1,489 @@
+//! End to end: a synthetic stereo calibration session (1024x768, 40 frames, about one
+//! in ten bad) replayed over DDS on loopback into a `calibrate_node` process (on this
+//! test's own ROS domain); `~/calibrate` and `~/commit` called through service clients,
+//! the written camera_info files checked against ground truth, and a fake camera's
+//! `set_camera_info` receiving the same calibration. A second test kills the node
+//! mid-session and finds the samples again after a restart.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, Subscription,
+};
+use stereocal::bag::{BagReader, TopicFilter};
+use stereocal::cli::synth::{ModelArg, SceneArg, SynthArgs};
+use stereocal::runtime::qos;
+use stereocal::runtime::service::{
+    ServiceClient, Srv, call, create_client, create_server, wait_for_server,
+};
+use stereocal::runtime::transport::{DiscoveryRange, TransportConfig};
+use stereocal_msgs::CameraInfoFile;
+use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
+use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
+use stereocal_msgs::std_msgs;
+use stereocal_msgs::std_srvs::srv::{TriggerRequest, TriggerResponse};
+use stereocal_vision::synth::GroundTruth;
+
+/// Namespace of the pair and of the node.
+const NAMESPACE: &str = "/stereo";
+/// The node's fully qualified name.
+const NODE: &str = "/stereo/calibrate_node";
+/// How long one frame may take to be judged before it is sent again.
+const FRAME_TIMEOUT: Duration = Duration::from_secs(5);
+
+/// A rendered session: ground truth and the recorded (left, right) pairs in stamp order.
+struct Session {
+    truth: GroundTruth,
+    pairs: Vec<(Image, Image)>,
+}
+
+/// The 40-frame stereo session, synthesized once for every test of this binary.
+fn session() -> &'static Session {
+    static SESSION: OnceLock<Session> = OnceLock::new();
+    SESSION.get_or_init(|| {
+        let dir = tempfile::tempdir().expect("temp dir");
+        stereocal::cli::synth::run(&SynthArgs {
+            scene: SceneArg::Calibration,
+            out: dir.path().to_path_buf(),
+            seed: 3,
+            frames: Some(40),
+            width: 1024,
+            height: 768,
+            model: ModelArg::PlumbBob,
+            bad_frames: None,
+            rgb: false,
+            vertical: false,
+        })
+        .expect("synth");
+        let text = std::fs::read_to_string(dir.path().join("ground_truth.json")).expect("truth");
+        let truth: GroundTruth = serde_json::from_str(&text).expect("truth json");
+        let reader = BagReader::open(&dir.path().join("bag")).expect("bag");
+        let read = |topic: &str| -> Vec<Image> {
+            reader
+                .messages(&TopicFilter::only([topic]))
+                .map(|m| m.expect("message").decode::<Image>().expect("image"))
+                .collect()
+        };
+        let left = read("/stereo/left/image_raw");
+        let right = read("/stereo/right/image_raw");
+        assert_eq!(left.len(), 40);
+        assert_eq!(right.len(), 40);
+        Session {
+            truth,
+            pairs: left.into_iter().zip(right).collect(),
+        }
+    })
+}
+
+/// A ROS domain of this test process only: `offset` tells the tests of this binary
+/// apart; other test binaries use other ranges.
+fn domain_id(offset: u16) -> u16 {
+    20 + 2 * u16::try_from(std::process::id() % 50).unwrap_or(0) + offset
+}
+
+/// A `calibrate_node` process, with its stderr collected.
+struct NodeProcess {
+    child: Child,
+    stderr: Option<JoinHandle<String>>,
+}
+
+impl NodeProcess {
+    fn start(domain: u16, dir: &Path) -> Self {
+        let state = dir.join("state");
+        let url = |name: &str| format!("file://{}", dir.join(format!("{name}.yaml")).display());
+        let mut child = Command::new(env!("CARGO_BIN_EXE_calibrate_node"))
+            .args([
+                "--ros-args",
+                "-r",
+                &format!("__ns:={NAMESPACE}"),
+                "-r",
+                "left/image:=left/image_raw",
+                "-r",
+                "right/image:=right/image_raw",
+                "-p",
+                "stereo:=true",
+                "-p",
+                "size:=9x6",
+                "-p",
+                "square:=0.025",
+                "-p",
+                &format!("state_dir:={}", state.display()),
+                "-p",
+                &format!("left_camera_info_url:={}", url("left")),
+                "-p",
+                &format!("right_camera_info_url:={}", url("right")),
+            ])
+            .env("ROS_DOMAIN_ID", domain.to_string())
+            .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start calibrate_node");
+        let stderr = child.stderr.take().map(|mut pipe| {
+            std::thread::spawn(move || {
+                let mut text = String::new();
+                let _ = pipe.read_to_string(&mut text);
+                text
+            })
+        });
+        Self { child, stderr }
+    }
+
+    /// Kills the node with SIGKILL: no chance to save anything on the way out.
+    fn kill(mut self) -> String {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        self.logs()
+    }
+
+    /// Stops the node with SIGTERM and returns what it printed.
+    fn terminate(mut self) -> String {
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
+        let deadline = Instant::now() + Duration::from_secs(5);
+        while matches!(self.child.try_wait(), Ok(None)) && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        self.kill()
+    }
+
+    fn logs(&mut self) -> String {
+        self.stderr
+            .take()
+            .and_then(|h| h.join().ok())
+            .unwrap_or_default()
+    }
+}
+
+impl Drop for NodeProcess {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// The test's side: a player of the pair, a reader of `~/status`, clients of the node's
+/// services, and a fake left camera serving `left/set_camera_info`.
+struct Player {
+    left: Publisher<Image>,
+    right: Publisher<Image>,
+    status: Subscription<std_msgs::String>,
+    calibrate: ServiceClient<TriggerRequest, TriggerResponse>,
+    commit: ServiceClient<TriggerRequest, TriggerResponse>,
+    camera_info_received: Arc<Mutex<Vec<CameraInfo>>>,
+    camera_stop: Arc<AtomicBool>,
+    camera: Option<JoinHandle<()>>,
+    last_status: serde_json::Value,
+    node: Node,
+    _context: Context,
+}
+
+fn topic(
+    node: &mut Node,
+    name: &str,
+    package: &str,
+    type_name: &str,
+) -> ros2_client::dds::rustdds::Topic {
+    node.create_topic(
+        &Name::parse(name).expect("name"),
+        MessageTypeName::new(package, type_name),
+        &qos::reliable(10),
+    )
+    .expect("topic")
+}
+
+impl Player {
+    fn new(domain: u16) -> Self {
+        let transport = TransportConfig {
+            range: DiscoveryRange::Localhost,
+            ..TransportConfig::rustdds_defaults()
+        };
+        let context = transport.context(domain).expect("context");
+        let mut node = context
+            .new_node(
+                NodeName::new("/stereocal", "calibration_player").expect("name"),
+                NodeOptions::new().enable_rosout(false),
+            )
+            .expect("node");
+        let spinner = node.spinner().expect("spinner");
+        std::thread::spawn(move || {
+            let _ = futures::executor::block_on(spinner.spin());
+        });
+        let left_topic = topic(&mut node, "/stereo/left/image_raw", "sensor_msgs", "Image");
+        let right_topic = topic(&mut node, "/stereo/right/image_raw", "sensor_msgs", "Image");
+        let status_topic = topic(&mut node, &format!("{NODE}/status"), "std_msgs", "String");
+        let left = node.create_publisher(&left_topic, None).expect("left");
+        let right = node.create_publisher(&right_topic, None).expect("right");
+        let status = node
+            .create_subscription(
+                &status_topic,
+                Some(qos::reliable(10).durability(ros2_client::qos::Durability::TransientLocal)),
+            )
+            .expect("status");
+        let calibrate = create_client(&mut node, &format!("{NODE}/calibrate")).expect("client");
+        let commit = create_client(&mut node, &format!("{NODE}/commit")).expect("client");
+        let server = create_server::<SetCameraInfoRequest, SetCameraInfoResponse>(
+            &mut node,
+            "/stereo/left/set_camera_info",
+        )
+        .expect("server");
+        let camera_info_received = Arc::new(Mutex::new(Vec::new()));
+        let camera_stop = Arc::new(AtomicBool::new(false));
+        let camera = {
+            let received = Arc::clone(&camera_info_received);
+            let stop = Arc::clone(&camera_stop);
+            std::thread::spawn(move || {
+                while !stop.load(Ordering::Relaxed) {
+                    while let Ok(Some((id, Srv(request)))) = server.receive_request() {
+                        received.lock().expect("lock").push(request.camera_info);
+                        let _ = server.send_response(
+                            id,
+                            Srv(SetCameraInfoResponse {
+                                success: true,
+                                status_message: "stored".into(),
+                            }),
+                        );
+                    }
+                    std::thread::sleep(Duration::from_millis(5));
+                }
+            })
+        };
+        Self {
+            left,
+            right,
+            status,
+            calibrate,
+            commit,
+            camera_info_received,
+            camera_stop,
+            camera: Some(camera),
+            last_status: serde_json::Value::Null,
+            node,
+            _context: context,
+        }
+    }
+
+    /// Takes the status messages that arrived; whether any did.
+    fn poll_status(&mut self) -> bool {
+        let mut got = false;
+        while let Ok(Some((message, _))) = self.status.take() {
+            self.last_status = serde_json::from_str(&message.data).expect("status is JSON");
+            got = true;
+        }
+        got
+    }
+
+    fn status_count(&self, key: &str) -> u64 {
+        match key {
+            "samples" => self.last_status["samples"].as_u64().unwrap_or(0),
+            frames => self.last_status["frames"][frames].as_u64().unwrap_or(0),
+        }
+    }
+
+    /// Waits for a started node's first status (it publishes one at start-up).
+    fn wait_for_node(&mut self) {
+        self.last_status = serde_json::Value::Null;
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while !self.poll_status() {
+            assert!(Instant::now() < deadline, "no status from the node in 20 s");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+
+    /// Publishes one pair and waits until the node has judged it (sending it again
+    /// while the node's readers have not matched ours yet, as frames are best-effort).
+    fn send_pair(&mut self, pair: &(Image, Image)) {
+        let judged = self.status_count("judged");
+        let deadline = Instant::now() + Duration::from_secs(30);
+        loop {
+            self.left.publish(pair.0.clone()).expect("publish left");
+            self.right.publish(pair.1.clone()).expect("publish right");
+            let resend = Instant::now() + FRAME_TIMEOUT.min(Duration::from_secs(1));
+            while Instant::now() < resend {
+                self.poll_status();
+                if self.status_count("judged") > judged {
+                    return;
+                }
+                std::thread::sleep(Duration::from_millis(5));
+            }
+            assert!(
+                Instant::now() < deadline,
+                "the node judged no frame in 30 s"
+            );
+        }
+    }
+
+    fn trigger(&self, which: &str) -> TriggerResponse {
+        let client = if which == "calibrate" {
+            &self.calibrate
+        } else {
+            &self.commit
+        };
+        assert!(
+            wait_for_server(&self.node, client, Duration::from_secs(10)),
+            "no ~/{which} server"
+        );
+        call(client, &TriggerRequest::default(), Duration::from_secs(60))
+            .expect("call")
+            .unwrap_or_else(|| panic!("~/{which} did not answer"))
+    }
+}
+
+impl Drop for Player {
+    fn drop(&mut self) {
+        self.camera_stop.store(true, Ordering::Relaxed);
+        if let Some(camera) = self.camera.take() {
+            let _ = camera.join();
+        }
+    }
+}
+
+fn yaml(dir: &Path, name: &str) -> PathBuf {
+    dir.join(format!("{name}.yaml"))
+}
+
+/// Checks a written camera_info file against the camera's ground truth.
+fn check_camera_file(dir: &Path, truth: &GroundTruth, index: usize) -> CameraInfoFile {
+    let record = &truth.cameras[index];
+    let file = CameraInfoFile::read(yaml(dir, &record.name)).expect("camera_info file");
+    assert_eq!(file.camera_name, record.name);
+    assert_eq!((file.info.width, file.info.height), (1024, 768));
+    let expected = record.camera_model().expect("model").intrinsics;
+    let k = file.info.k;
+    for (what, got, want) in [
+        ("fx", k[0], expected.fx),
+        ("fy", k[4], expected.fy),
+        ("cx", k[2], expected.cx),
+        ("cy", k[5], expected.cy),
+    ] {
+        assert!(
+            (got - want).abs() < 0.2,
+            "{} {what}: {got:.4} against {want:.4}",
+            record.name
+        );
+    }
+    // R rotates into the rectified frame; P projects with the rectified focal length.
+    assert_ne!(file.info.r, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+    let det = {
+        let r = file.info.r;
+        r[0] * (r[4] * r[8] - r[5] * r[7]) - r[1] * (r[3] * r[8] - r[5] * r[6])
+            + r[2] * (r[3] * r[7] - r[4] * r[6])
+    };
+    assert!((det - 1.0).abs() < 1e-9, "R is a rotation: det {det}");
+    assert!(file.info.p[0] > 0.0 && file.info.p[5] > 0.0 && file.info.p[10] == 1.0);
+    file
+}
+
+#[test]
+fn a_replayed_stereo_session_calibrates_and_commits_camera_info_near_the_truth() {
+    let session = session();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let domain = domain_id(0);
+    let mut player = Player::new(domain);
+    let node = NodeProcess::start(domain, dir.path());
+    player.wait_for_node();
+    assert_eq!(player.status_count("samples"), 0);
+
+    for pair in &session.pairs {
+        player.send_pair(pair);
+    }
+    let samples = player.status_count("samples");
+    assert!(
+        player.last_status["ready"].as_bool() == Some(true),
+        "{}",
+        player.last_status
+    );
+    assert!(samples >= 20, "{samples} samples kept of 40 frames");
+    assert!(
+        samples < 40,
+        "the bad frames were refused: {samples} samples"
+    );
+
+    let calibrated = player.trigger("calibrate");
+    assert!(calibrated.success, "{}", calibrated.message);
+    for part in ["left: RMS", "right: RMS", "epipolar RMS"] {
+        assert!(calibrated.message.contains(part), "{}", calibrated.message);
+    }
+
+    let committed = player.trigger("commit");
+    let node_logs = node.terminate();
+    assert!(committed.success, "{}\n{node_logs}", committed.message);
+    assert!(
+        committed
+            .message
+            .contains("acknowledged by /stereo/left/set_camera_info"),
+        "{}",
+        committed.message
+    );
+    assert!(
+        committed
+            .message
+            .contains("no /stereo/right/set_camera_info server answered"),
+        "{}",
+        committed.message
+    );
+    let left = check_camera_file(dir.path(), &session.truth, 0);
+    let right = check_camera_file(dir.path(), &session.truth, 1);
+    // The pair shares its rectified rows: same fy and cy in both P.
+    assert_eq!(left.info.p[5], right.info.p[5]);
+    assert_eq!(left.info.p[6], right.info.p[6]);
+
+    let received = player.camera_info_received.lock().expect("lock").clone();
+    assert_eq!(
+        received.len(),
+        1,
+        "the fake left camera got one camera_info"
+    );
+    assert_eq!(received[0].k, left.info.k);
+    assert_eq!(received[0].d, left.info.d);
+    assert_eq!(received[0].r, left.info.r);
+    assert_eq!(received[0].p, left.info.p);
+    assert_eq!(received[0].distortion_model, left.info.distortion_model);
+}
+
+#[test]
+fn samples_survive_a_killed_node() {
+    let session = session();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let domain = domain_id(1);
+    let mut player = Player::new(domain);
+    let node = NodeProcess::start(domain, dir.path());
+    player.wait_for_node();
+
+    let mut sent = 0;
+    while player.status_count("samples") < 5 {
+        player.send_pair(&session.pairs[sent]);
+        sent += 1;
+    }
+    let kept = player.status_count("samples");
+    let logs = node.kill();
+    assert!(logs.contains("sample added"), "{logs}");
+
+    // The restarted node reports the samples it found in state_dir before any frame.
+    player.poll_status();
+    let node = NodeProcess::start(domain, dir.path());
+    player.wait_for_node();
+    assert_eq!(
+        player.status_count("samples"),
+        kept,
+        "{}",
+        player.last_status
+    );
+    assert_eq!(player.status_count("judged"), 0);
+
+    for pair in &session.pairs[sent..] {
+        player.send_pair(pair);
+    }
+    assert!(player.status_count("samples") > kept);
+    let calibrated = player.trigger("calibrate");
+    let logs = node.terminate();
+    assert!(calibrated.success, "{}\n{logs}", calibrated.message);
+}
