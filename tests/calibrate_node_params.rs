@@ -1,0 +1,90 @@
+//! `calibrate_node` refuses bad parameters at start-up: it exits with a failure and a
+//! message that names the parameter and says what was expected.
+
+use std::process::{Command, Stdio};
+
+/// A ROS domain of this test process only (other test binaries use other ranges).
+fn domain_id() -> u16 {
+    120 + u16::try_from(std::process::id() % 20).unwrap_or(0)
+}
+
+/// Runs the node with `params` (`name:=value`) and returns its exit status and the
+/// last line it printed on stderr.
+fn start_with(params: &[&str]) -> (bool, String) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut command = Command::new(env!("CARGO_BIN_EXE_calibrate_node"));
+    command.args([
+        "--ros-args",
+        "-p",
+        &format!("state_dir:={}", dir.path().display()),
+    ]);
+    for param in params {
+        command.args(["-p", param]);
+    }
+    let output = command
+        .env("ROS_DOMAIN_ID", domain_id().to_string())
+        .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
+        .stdin(Stdio::null())
+        .output()
+        .expect("run calibrate_node");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    let last = stderr.lines().last().unwrap_or_default().to_owned();
+    (output.status.success(), last)
+}
+
+fn assert_refused(params: &[&str], expected: &[&str]) {
+    let (success, message) = start_with(params);
+    assert!(!success, "{params:?} was accepted");
+    assert!(
+        message.starts_with("calibrate_node: parameter "),
+        "{params:?}: {message}"
+    );
+    for part in expected {
+        assert!(message.contains(part), "{params:?}: {message}");
+    }
+}
+
+#[test]
+fn an_unknown_pattern_is_refused_naming_the_choices() {
+    assert_refused(
+        &["pattern:=circles", "size:=9x6", "square:=0.025"],
+        &["parameter pattern", "\"circles\"", "chessboard or charuco"],
+    );
+}
+
+#[test]
+fn a_bad_or_missing_size_is_refused() {
+    assert_refused(
+        &["size:=9by6", "square:=0.025"],
+        &["parameter size", "\"9by6\"", "COLSxROWS"],
+    );
+    assert_refused(&["square:=0.025"], &["parameter size", "required"]);
+    assert_refused(&["size:=9x6"], &["parameter square", "metres"]);
+}
+
+#[test]
+fn other_bad_parameters_are_refused_by_name() {
+    assert_refused(
+        &["size:=9x6", "square:=0.025", "model:=fisheye"],
+        &[
+            "parameter model",
+            "plumb_bob, rational_polynomial or equidistant",
+        ],
+    );
+    assert_refused(
+        &["size:=7x5", "square:=0.04", "pattern:=charuco"],
+        &["parameter marker_size"],
+    );
+    assert_refused(
+        &[
+            "size:=9x6",
+            "square:=0.025",
+            "camera_info_url:=http://example.invalid/camera.yaml",
+        ],
+        &["parameter camera_info_url", "only file://"],
+    );
+    assert_refused(
+        &["size:=9x6", "square:=0.025", "stereo:=true", "slop:=-0.1"],
+        &["parameter slop"],
+    );
+}
