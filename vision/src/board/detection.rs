@@ -33,8 +33,11 @@ pub trait TargetDetector {
     /// The target it looks for.
     fn target(&self) -> &Target;
 
-    /// Looks for the target in a grey image: `None` when it is not there in full
-    /// (for a chessboard, every inner corner must be found).
+    /// Looks for the target in a grey image. A chessboard is found only in full
+    /// (every inner corner), else `None`. A ChArUco board may be partly visible: the
+    /// detection holds the corners found (`ids` a subset of the target's), and `None`
+    /// when fewer than [`MIN_CHARUCO_CORNERS`](super::MIN_CHARUCO_CORNERS) are found
+    /// or all lie on one line of the board.
     fn detect_gray(&self, gray: &Gray) -> Option<Detection>;
 
     /// Looks for the target in any image (mono or colour, 8 or 16 bits); an error

@@ -5,6 +5,7 @@
 //! Detectors implement [`TargetDetector`]: an image in, the target's corners out, in
 //! target order, with pixel centres at integer coordinates.
 
+mod charuco;
 mod chessboard;
 mod detection;
 mod gray;
@@ -13,6 +14,7 @@ mod pattern_args;
 mod subpixel;
 mod target;
 
+pub use charuco::{CharucoDetector, MIN_CHARUCO_CORNERS};
 pub use chessboard::ChessboardDetector;
 pub use detection::{Detection, TargetDetector};
 pub use gray::Gray;
@@ -63,4 +65,12 @@ pub enum BoardError {
     /// The detector cannot detect this kind of target.
     #[error("{0}")]
     Unsupported(String),
+}
+
+/// The detector of `target`: a [`ChessboardDetector`] or a [`CharucoDetector`].
+pub fn detector_for(target: &Target) -> Result<Box<dyn TargetDetector + Send + Sync>, BoardError> {
+    Ok(match target {
+        Target::Chessboard(board) => Box::new(ChessboardDetector::new(*board)?),
+        Target::Charuco(board) => Box::new(CharucoDetector::new(board.clone())?),
+    })
 }

@@ -1,9 +1,12 @@
-//! The chessboard calibration target: geometry in the target frame and its regions.
+//! The calibration target: a chessboard, or a ChArUco board (a chessboard with ArUco
+//! markers in its white squares); geometry in the target frame and its regions.
 
+use calib_targets_charuco::builtins::builtin_dictionary;
 use nalgebra::{Point2, Point3};
 use serde::{Deserialize, Serialize};
 
 use super::SynthError;
+use crate::board::ArucoDictionary;
 
 /// A printed chessboard with a white margin around its squares.
 ///
@@ -11,7 +14,8 @@ use super::SynthError;
 /// row of corners, y along a column, z into the board; inner corner `(i, j)` is at
 /// `(i * square_size, j * square_size, 0)`. The squares span
 /// `[-square_size, cols * square_size] x [-square_size, rows * square_size]`; the
-/// square touching the origin on its `-x, -y` side is black.
+/// square touching the origin on its `-x, -y` side is black. With `markers` it is a
+/// ChArUco board laid out as OpenCV's `CharucoBoard`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Chessboard {
     /// Inner corners along x (per row).
@@ -26,6 +30,98 @@ pub struct Chessboard {
     /// Width of the white margin around the squares, metres.
     #[serde(rename = "margin_m")]
     pub margin: f64,
+    /// ArUco markers in the white squares (a ChArUco board); none on a chessboard.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub markers: Option<CharucoMarkers>,
+}
+
+/// The ArUco markers of a ChArUco board, as OpenCV's `CharucoBoard` draws them: one
+/// marker centred in each white square (the square diagonally outside the first inner
+/// corner is black), ids counting the white squares row after row from the board's
+/// top-left square, each marker a black border one bit wide around the dictionary's
+/// bits (black where the code has a 1, rows top to bottom along the target's y).
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+#[serde(try_from = "MarkersRecord", into = "MarkersRecord")]
+pub struct CharucoMarkers {
+    marker_size: f64,
+    dictionary: ArucoDictionary,
+    /// Codes of the dictionary, by marker id: bit `r * bits + c` is the cell of row
+    /// `r`, column `c`, set when black.
+    codes: &'static [u64],
+    /// Bits per marker side.
+    bits: usize,
+}
+
+/// How markers appear in ground-truth files.
+#[derive(Clone, Copy, Serialize, Deserialize)]
+struct MarkersRecord {
+    #[serde(rename = "marker_size_m")]
+    marker_size: f64,
+    dictionary: ArucoDictionary,
+}
+
+impl CharucoMarkers {
+    /// Markers of `marker_size` metres from `dictionary`.
+    pub fn new(marker_size: f64, dictionary: ArucoDictionary) -> Result<Self, SynthError> {
+        let invalid = || SynthError::InvalidMarkers {
+            marker_size,
+            dictionary: dictionary.opencv_name(),
+        };
+        if !(marker_size.is_finite() && marker_size > 0.0) {
+            return Err(invalid());
+        }
+        let codes = builtin_dictionary(dictionary.opencv_name()).ok_or_else(invalid)?;
+        Ok(Self {
+            marker_size,
+            dictionary,
+            codes: codes.codes(),
+            bits: codes.marker_size(),
+        })
+    }
+
+    /// Side of one marker, metres.
+    pub fn marker_size(&self) -> f64 {
+        self.marker_size
+    }
+
+    /// The dictionary.
+    pub fn dictionary(&self) -> ArucoDictionary {
+        self.dictionary
+    }
+
+    /// Whether the marker's cell `(column, row)` (border included, `0..bits + 2`) is
+    /// black; `None` for a marker id the dictionary lacks.
+    fn cell_is_black(&self, id: usize, column: usize, row: usize) -> Option<bool> {
+        let code = *self.codes.get(id)?;
+        let bits = self.bits;
+        if column == 0 || row == 0 || column > bits || row > bits {
+            return Some(true);
+        }
+        Some((code >> ((row - 1) * bits + column - 1)) & 1 == 1)
+    }
+}
+
+impl PartialEq for CharucoMarkers {
+    fn eq(&self, other: &Self) -> bool {
+        self.marker_size == other.marker_size && self.dictionary == other.dictionary
+    }
+}
+
+impl TryFrom<MarkersRecord> for CharucoMarkers {
+    type Error = SynthError;
+
+    fn try_from(record: MarkersRecord) -> Result<Self, Self::Error> {
+        Self::new(record.marker_size, record.dictionary)
+    }
+}
+
+impl From<CharucoMarkers> for MarkersRecord {
+    fn from(markers: CharucoMarkers) -> Self {
+        Self {
+            marker_size: markers.marker_size,
+            dictionary: markers.dictionary,
+        }
+    }
 }
 
 /// What a point of the target plane shows.
@@ -38,12 +134,26 @@ pub(crate) enum Region {
     /// A square, by its indices along x and y (the square `(i, j)` spans
     /// `[i, i + 1] x [j, j + 1]` squares).
     Square(i32, i32),
+    /// A cell of the marker in square `square`: `cell` counts cells along x and y
+    /// from the marker's top-left, its black border included.
+    MarkerCell {
+        /// The square holding the marker.
+        square: (i32, i32),
+        /// The cell within the marker.
+        cell: (i32, i32),
+        /// Whether the cell is black.
+        black: bool,
+    },
 }
 
 impl Region {
-    /// Whether a square is black.
-    pub(crate) fn is_black_square(self) -> bool {
-        matches!(self, Region::Square(i, j) if (i + j).rem_euclid(2) == 0)
+    /// Whether the region is black (a black square or a black marker cell).
+    pub(crate) fn is_black(self) -> bool {
+        match self {
+            Region::Square(i, j) => (i + j).rem_euclid(2) == 0,
+            Region::MarkerCell { black, .. } => black,
+            Region::Off | Region::Margin => false,
+        }
     }
 }
 
@@ -71,7 +181,44 @@ impl Chessboard {
             rows,
             square_size,
             margin,
+            markers: None,
         })
+    }
+
+    /// A ChArUco board of `cols x rows` inner corners (`(cols + 1) x (rows + 1)`
+    /// squares) with `markers` in its white squares: markers smaller than the squares,
+    /// and a dictionary with a marker for every white square.
+    pub fn charuco(
+        cols: usize,
+        rows: usize,
+        square_size: f64,
+        margin: f64,
+        markers: CharucoMarkers,
+    ) -> Result<Self, SynthError> {
+        let board = Self {
+            markers: Some(markers),
+            ..Self::new(cols, rows, square_size, margin)?
+        };
+        board.checked()
+    }
+
+    /// The board after checking its dimensions and markers (a board built field by
+    /// field or read from a file has not been checked).
+    pub fn checked(&self) -> Result<Self, SynthError> {
+        let board = Self {
+            markers: self.markers,
+            ..Self::new(self.cols, self.rows, self.square_size, self.margin)?
+        };
+        if let Some(markers) = &board.markers {
+            let white_squares = ((self.cols + 1) * (self.rows + 1)) / 2;
+            if markers.marker_size >= self.square_size || markers.codes.len() < white_squares {
+                return Err(SynthError::InvalidMarkers {
+                    marker_size: markers.marker_size,
+                    dictionary: markers.dictionary.opencv_name(),
+                });
+            }
+        }
+        Ok(board)
     }
 
     /// Number of inner corners.
@@ -129,7 +276,47 @@ impl Chessboard {
         if i < -1 || j < -1 || i >= self.cols as i64 || j >= self.rows as i64 {
             return Region::Margin;
         }
-        Region::Square(i as i32, j as i32)
+        let square = Region::Square(i as i32, j as i32);
+        match &self.markers {
+            Some(markers) if !square.is_black() => self
+                .marker_region(markers, i as i32, j as i32, x, y)
+                .unwrap_or(square),
+            _ => square,
+        }
+    }
+
+    /// The marker cell of white square `(i, j)` at `(x, y)`; `None` outside the
+    /// marker.
+    fn marker_region(
+        &self,
+        markers: &CharucoMarkers,
+        i: i32,
+        j: i32,
+        x: f64,
+        y: f64,
+    ) -> Option<Region> {
+        let offset = 0.5 * (self.square_size - markers.marker_size);
+        let u = x - (f64::from(i) * self.square_size + offset);
+        let v = y - (f64::from(j) * self.square_size + offset);
+        if !(u >= 0.0 && v >= 0.0 && u < markers.marker_size && v < markers.marker_size) {
+            return None;
+        }
+        let cells = markers.bits + 2;
+        let cell_size = markers.marker_size / cells as f64;
+        let column = ((u / cell_size) as usize).min(cells - 1);
+        let row = ((v / cell_size) as usize).min(cells - 1);
+        // OpenCV's square (a, b) counts from the board's top-left square, one square up
+        // and left of ours; its white squares, (a + b) odd, are numbered row-major.
+        let (a, b) = (usize::try_from(i + 1).ok()?, usize::try_from(j + 1).ok()?);
+        let squares_x = self.cols + 1;
+        let whites_before_row = b.div_ceil(2) * (squares_x / 2) + (b / 2) * squares_x.div_ceil(2);
+        let whites_before_in_row = if b % 2 == 0 { a / 2 } else { a.div_ceil(2) };
+        let id = whites_before_row + whites_before_in_row;
+        Some(Region::MarkerCell {
+            square: (i, j),
+            cell: (column as i32, row as i32),
+            black: markers.cell_is_black(id, column, row)?,
+        })
     }
 }
 
@@ -162,13 +349,48 @@ mod tests {
     fn regions_around_the_first_corner_alternate() {
         let board = Chessboard::new(3, 2, 0.05, 0.02).unwrap();
         let d = 0.01;
-        assert!(board.region(-d, -d).is_black_square());
-        assert!(!board.region(d, -d).is_black_square());
-        assert!(!board.region(-d, d).is_black_square());
-        assert!(board.region(d, d).is_black_square());
+        assert!(board.region(-d, -d).is_black());
+        assert!(!board.region(d, -d).is_black());
+        assert!(!board.region(-d, d).is_black());
+        assert!(board.region(d, d).is_black());
         assert_eq!(board.region(-0.06, 0.0), Region::Margin);
         assert_eq!(board.region(-0.08, 0.0), Region::Off);
         assert_eq!(board.region(0.0, 0.12), Region::Margin);
+    }
+
+    #[test]
+    fn charuco_markers_follow_opencv_layout() {
+        let markers = CharucoMarkers::new(0.03, ArucoDictionary::Dict4x4_50).unwrap();
+        let board = Chessboard::charuco(6, 4, 0.04, 0.01, markers).unwrap();
+        // Cell side 0.03 / 6 = 0.005 m; the marker starts 0.005 m into its square.
+        let cell = |i: f64, j: f64, column: f64, row: f64| {
+            board.region(
+                i * 0.04 + 0.005 + (column + 0.5) * 0.005,
+                j * 0.04 + 0.005 + (row + 0.5) * 0.005,
+            )
+        };
+        // Marker 0 sits in OpenCV's square (1, 0), our (0, -1); marker 3 in (0, 1),
+        // our (-1, 0): the first white square of the second row.
+        let codes = builtin_dictionary("DICT_4X4_50").unwrap().codes();
+        for (id, (i, j)) in [(0usize, (0.0, -1.0)), (3, (-1.0, 0.0))] {
+            assert!(cell(i, j, 0.0, 0.0).is_black(), "marker {id} border");
+            for bit in 0..16 {
+                let (column, row) = ((bit % 4) as f64 + 1.0, (bit / 4) as f64 + 1.0);
+                let black = (codes[id] >> bit) & 1 == 1;
+                assert_eq!(
+                    cell(i, j, column, row).is_black(),
+                    black,
+                    "marker {id} bit {bit}"
+                );
+            }
+        }
+        // Black squares carry no marker; white squares stay white outside theirs.
+        assert_eq!(board.region(0.02, 0.02), Region::Square(0, 0));
+        assert_eq!(board.region(0.041, 0.002), Region::Square(1, 0));
+        // A dictionary too small for the board, or markers as large as the squares.
+        let small = CharucoMarkers::new(0.03, ArucoDictionary::Dict4x4_50).unwrap();
+        assert!(Chessboard::charuco(11, 9, 0.04, 0.01, small).is_err());
+        assert!(Chessboard::charuco(6, 4, 0.03, 0.01, markers).is_err());
     }
 
     #[test]

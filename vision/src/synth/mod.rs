@@ -1,4 +1,4 @@
-//! Synthetic scenes with exact ground truth: a chessboard target rendered through a
+//! Synthetic scenes with exact ground truth: a chessboard or ChArUco target rendered through a
 //! camera model (anti-aliased, with defocus, noise, vignetting, uneven light and a
 //! cluttered background), stereo rigs and robot-arm hand-eye sessions with bad frames
 //! on request, and a saddle-point fit that measures rendered corners.
@@ -17,7 +17,7 @@ mod scene;
 mod truth;
 
 pub use background::Background;
-pub use board::Chessboard;
+pub use board::{CharucoMarkers, Chessboard};
 pub use photometry::Photometry;
 pub use poses::{Coverage, PoseRanges, PoseSampler};
 pub use render::{PixelFormat, Renderer, Shot};
@@ -47,6 +47,17 @@ pub enum SynthError {
         square_size: f64,
         /// Margin, metres.
         margin: f64,
+    },
+    /// A ChArUco board's markers are unusable.
+    #[error(
+        "invalid ChArUco markers of {marker_size} m from {dictionary}: expected a positive \
+         size smaller than the squares and a dictionary with a marker for every white square"
+    )]
+    InvalidMarkers {
+        /// Marker side, metres.
+        marker_size: f64,
+        /// The dictionary.
+        dictionary: &'static str,
     },
     /// The image size is too small to hold a board.
     #[error("image size {width}x{height} is too small: expected at least 64x64")]

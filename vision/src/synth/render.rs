@@ -340,7 +340,7 @@ impl Renderer {
 
     /// Reflectance times the (uneven) light at target position `(x, y)`.
     fn board_radiance(&self, region: Region, x: f64, y: f64, photometry: &Photometry) -> f32 {
-        let reflectance = if region.is_black_square() {
+        let reflectance = if region.is_black() {
             photometry.black_reflectance
         } else {
             photometry.white_reflectance

@@ -106,6 +106,7 @@ impl SceneSpec {
             rows: 6,
             square_size: square,
             margin: square,
+            markers: None,
         };
         Self {
             kind,
@@ -363,12 +364,7 @@ impl Scene {
         if !(0.0..=1.0).contains(&spec.bad_fraction) {
             return Err(SynthError::BadFraction(spec.bad_fraction));
         }
-        let board = Chessboard::new(
-            spec.board.cols,
-            spec.board.rows,
-            spec.board.square_size,
-            spec.board.margin,
-        )?;
+        let board = spec.board.checked()?;
         let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
         let background = Arc::new(Background::new(rng.random()));
 

@@ -1,0 +1,227 @@
+//! ChArUco detection: ChESS corners from `chess-corners` (single scale, saddle-point
+//! refiner), grid labelling, marker decoding and board alignment from
+//! `calib-targets-charuco` (its three-configuration sweep, the result with the most
+//! markers and corners kept), then our own sub-pixel refinement.
+//!
+//! The crate numbers ChArUco corners as OpenCV does (row-major over the inner
+//! corners), which is our [`Target`] corner id, and reports positions with pixel
+//! centres at integer coordinates, the convention of this crate. Its markers follow
+//! OpenCV's `CharucoBoard` (modern, non-legacy pattern: the top-left square black).
+//! A partly visible board gives the corners it shows; a detection needs at least
+//! [`MIN_CHARUCO_CORNERS`] corners, not all on one line of the board.
+
+use calib_targets_charuco::{
+    CharucoBoardSpec, CharucoDetector as BoardDetector, CharucoParams, GrayImageView, MarkerLayout,
+    builtins::builtin_dictionary,
+};
+use calib_targets_chessboard::{DetectorConfig, default_chess_config, detect_corners};
+use chess_corners::ImageRefiner;
+use nalgebra::Point2;
+
+use super::detection::{Detection, TargetDetector};
+use super::subpixel::{SubpixelWindow, refine_corners};
+use super::target::{Charuco, Target};
+use super::{BoardError, Gray};
+
+/// Fewest corners a ChArUco detection may have.
+pub const MIN_CHARUCO_CORNERS: usize = 6;
+
+/// Share of the gap between a corner and the nearest marker (along a square's side)
+/// the refinement window's half-size may take: the window must not reach the
+/// marker's edges, which would pull the corner towards them.
+const WINDOW_GAP_SHARE: f64 = 0.8;
+
+/// A corner's id and image position.
+type IdCorner = (usize, Point2<f64>);
+
+/// Finds a [`Charuco`] board, whole or in part, in images.
+#[derive(Debug)]
+pub struct CharucoDetector {
+    board: Charuco,
+    target: Target,
+    corner_config: DetectorConfig,
+    detectors: Vec<BoardDetector>,
+    window: SubpixelWindow,
+}
+
+impl CharucoDetector {
+    /// A detector of `board` with the default configuration.
+    pub fn new(board: Charuco) -> Result<Self, BoardError> {
+        board.validate()?;
+        let name = board.dictionary.opencv_name();
+        let dictionary = builtin_dictionary(name).ok_or_else(|| {
+            BoardError::Unsupported(format!("the ArUco dictionary {name} is not available"))
+        })?;
+        let (squares_x, squares_y) = (
+            u32::try_from(board.squares_x).map_err(|e| BoardError::InvalidTarget(e.to_string()))?,
+            u32::try_from(board.squares_y).map_err(|e| BoardError::InvalidTarget(e.to_string()))?,
+        );
+        let spec = CharucoBoardSpec::new(
+            squares_y,
+            squares_x,
+            board.square_size as f32,
+            (board.marker_size / board.square_size) as f32,
+            dictionary,
+        )
+        .with_marker_layout(MarkerLayout::OpenCvCharuco);
+        // The multiscale pyramid that serves chessboards loses ChArUco grids (the
+        // ChArUco configurations' corner-strength floor is tuned for one scale); the
+        // saddle-point refiner places the crate's corners far better than its default.
+        let corner_config = default_chess_config().with_refiner(ImageRefiner::saddle_point());
+        let detectors = CharucoParams::sweep_for_board(&spec)
+            .into_iter()
+            .map(|mut params| {
+                params.chess = corner_config;
+                BoardDetector::new(params).map_err(|e| BoardError::InvalidTarget(e.to_string()))
+            })
+            .collect::<Result<_, _>>()?;
+        // The corner's window stays clear of the markers of its two white squares.
+        let gap = 0.5 * (board.square_size - board.marker_size) / board.square_size;
+        let default = SubpixelWindow::default();
+        let window = SubpixelWindow {
+            fraction: default.fraction.min(WINDOW_GAP_SHARE * gap),
+            ..default
+        };
+        Ok(Self {
+            target: Target::Charuco(board.clone()),
+            board,
+            corner_config,
+            detectors,
+            window,
+        })
+    }
+
+    /// Replaces the sub-pixel refinement settings.
+    pub fn with_subpixel_window(mut self, window: SubpixelWindow) -> Self {
+        self.window = window;
+        self
+    }
+
+    /// The board.
+    pub fn board(&self) -> &Charuco {
+        &self.board
+    }
+
+    /// The board's corners found in `gray` by the sweep, by ascending id, before our
+    /// refinement: the configuration that aligned the most markers (then corners).
+    fn find_corners(&self, gray: &Gray) -> Option<(Vec<usize>, Vec<Point2<f64>>)> {
+        let view = GrayImageView {
+            width: gray.width,
+            height: gray.height,
+            data: &gray.data,
+        };
+        let chess = detect_corners(&view, &self.corner_config);
+        let count = self.board.cols() * self.board.rows();
+        let mut best: Option<((usize, usize), Vec<IdCorner>)> = None;
+        for detector in &self.detectors {
+            let Ok(found) = detector.detect_with_corners(&view, &chess) else {
+                continue;
+            };
+            let mut corners: Vec<IdCorner> = found
+                .corners
+                .iter()
+                .filter_map(|c| {
+                    let id = usize::try_from(c.id).ok().filter(|&id| id < count)?;
+                    let p = Point2::new(f64::from(c.position.x), f64::from(c.position.y));
+                    (p.x.is_finite() && p.y.is_finite()).then_some((id, p))
+                })
+                .collect();
+            corners.sort_by_key(|(id, _)| *id);
+            corners.dedup_by_key(|(id, _)| *id);
+            let score = (found.markers.len(), corners.len());
+            if best.as_ref().is_none_or(|(s, _)| score > *s) {
+                best = Some((score, corners));
+            }
+        }
+        let (_, corners) = best?;
+        Some(corners.into_iter().unzip())
+    }
+
+    /// Shortest distance from each corner to a detected neighbour on the board's
+    /// grid, pixels; corners with no detected neighbour take the median of the others.
+    fn local_squares(&self, ids: &[usize], corners: &[Point2<f64>]) -> Vec<f64> {
+        let cols = self.board.cols();
+        let position = |id: usize| ids.binary_search(&id).ok().map(|k| corners[k]);
+        let mut squares: Vec<Option<f64>> = ids
+            .iter()
+            .zip(corners)
+            .map(|(&id, here)| {
+                let (i, j) = (id % cols, id / cols);
+                let mut neighbours = Vec::with_capacity(4);
+                if i > 0 {
+                    neighbours.push(id - 1);
+                }
+                if i + 1 < cols {
+                    neighbours.push(id + 1);
+                }
+                if j > 0 {
+                    neighbours.push(id - cols);
+                }
+                neighbours.push(id + cols);
+                neighbours
+                    .into_iter()
+                    .filter_map(position)
+                    .map(|n| (n - here).norm())
+                    .reduce(f64::min)
+            })
+            .collect();
+        let mut known: Vec<f64> = squares.iter().flatten().copied().collect();
+        known.sort_by(f64::total_cmp);
+        let median = known.get(known.len() / 2).copied().unwrap_or(0.0);
+        squares.iter_mut().map(|s| s.unwrap_or(median)).collect()
+    }
+}
+
+/// Whether the corners `ids` of a board with `cols` corners per row all lie on one
+/// straight line of the board (too little to fix a pose or a homography).
+fn collinear(ids: &[usize], cols: usize) -> bool {
+    let point = |id: usize| ((id % cols) as i64, (id / cols) as i64);
+    let Some((&first, rest)) = ids.split_first() else {
+        return true;
+    };
+    let a = point(first);
+    let Some(b) = rest.iter().map(|&id| point(id)).find(|&p| p != a) else {
+        return true;
+    };
+    rest.iter().all(|&id| {
+        let c = point(id);
+        (b.0 - a.0) * (c.1 - a.1) - (b.1 - a.1) * (c.0 - a.0) == 0
+    })
+}
+
+impl TargetDetector for CharucoDetector {
+    fn target(&self) -> &Target {
+        &self.target
+    }
+
+    fn detect_gray(&self, gray: &Gray) -> Option<Detection> {
+        let (ids, mut corners) = self.find_corners(gray)?;
+        if ids.len() < MIN_CHARUCO_CORNERS || collinear(&ids, self.board.cols()) {
+            return None;
+        }
+        let squares = self.local_squares(&ids, &corners);
+        refine_corners(gray, &mut corners, &squares, &self.window);
+        let mut sorted = squares;
+        sorted.sort_by(f64::total_cmp);
+        Some(Detection {
+            square_px: sorted[sorted.len() / 2],
+            corners,
+            ids,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn collinear_corners_are_recognised() {
+        // 6 corners per row.
+        assert!(collinear(&[0, 1, 2, 3, 4, 5], 6));
+        assert!(collinear(&[2, 8, 14, 20], 6));
+        assert!(collinear(&[0, 7, 14, 21], 6));
+        assert!(collinear(&[3], 6));
+        assert!(!collinear(&[0, 1, 2, 3, 4, 6], 6));
+    }
+}
