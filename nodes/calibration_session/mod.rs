@@ -6,6 +6,7 @@
 
 mod annotate;
 mod coverage;
+mod font;
 mod motion;
 mod sharpness;
 mod store;
