@@ -63,7 +63,7 @@ fn session() -> &'static Session {
         .expect("synth");
         let text = std::fs::read_to_string(dir.path().join("ground_truth.json")).expect("truth");
         let truth: GroundTruth = serde_json::from_str(&text).expect("truth json");
-        let reader = BagReader::open(&dir.path().join("bag")).expect("bag");
+        let reader = BagReader::open(dir.path().join("bag")).expect("bag");
         let read = |topic: &str| -> Vec<Image> {
             reader
                 .messages(&TopicFilter::only([topic]))
