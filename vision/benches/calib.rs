@@ -1,6 +1,7 @@
 //! The mono and stereo solves on OpenCV's corners of the 13 real stereo pairs
-//! (tests/fixtures/opencv_calib_reference.json): what `interop/bench_calib_opencv.py`
-//! times against cv2.calibrateCamera and cv2.stereoCalibrate side by side.
+//! (tests/fixtures/opencv_calib_reference.json). `interop/bench_calibrate_opencv.py`
+//! times the same solves against cv2.calibrateCamera and cv2.stereoCalibrate side by
+//! side, on the corners of a synthetic 1280x720 session.
 
 use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Point2, Point3};

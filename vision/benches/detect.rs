@@ -1,11 +1,9 @@
 //! Chessboard detection (grid, ordering and sub-pixel refinement) per 1280x720
 //! synthetic frame: a 9x6 board in eight poses over the image, realistic light and
-//! noise on a cluttered background. The frames are also written as PNG to
-//! `target/detect_bench/`, where `interop/bench_detect_opencv.py` times OpenCV's
-//! findChessboardCorners + cornerSubPix on the same images in the same run.
+//! noise on a cluttered background. `interop/bench_calibrate_opencv.py` compares
+//! detection with OpenCV's findChessboardCorners + cornerSubPix on the same images.
 
 use std::hint::black_box;
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -14,7 +12,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use stereocal_vision::board::{self, ChessboardDetector, Gray, TargetDetector};
 use stereocal_vision::camera::DistortionModel;
-use stereocal_vision::image::{Image, Samples};
+use stereocal_vision::image::Image;
 use stereocal_vision::synth::{
     Background, Chessboard, Coverage, Photometry, PixelFormat, PoseRanges, PoseSampler, Renderer,
     Shot, synthetic_camera,
@@ -56,23 +54,8 @@ fn frames() -> Vec<Image> {
         .collect()
 }
 
-fn write_pngs(frames: &[Image]) {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../target/detect_bench");
-    std::fs::create_dir_all(&dir).expect("bench output directory");
-    for (index, frame) in frames.iter().enumerate() {
-        let Samples::U8(data) = &frame.samples else {
-            unreachable!("mono8 frames")
-        };
-        image::GrayImage::from_raw(frame.width as u32, frame.height as u32, data.clone())
-            .expect("size matches")
-            .save(dir.join(format!("frame{index:02}.png")))
-            .expect("PNG written");
-    }
-}
-
 fn detect(c: &mut Criterion) {
     let frames = frames();
-    write_pngs(&frames);
     let grays: Vec<Gray> = frames
         .iter()
         .map(|f| Gray::from_image(f).expect("valid frame"))
