@@ -221,6 +221,7 @@ fn defocus_and_motion_blur_of_a_found_board_are_refused_for_what_they_are() {
     let Verdict::Refused(motion) = judge(&shot(Some(moved), 0.6)) else {
         panic!("a moving board was kept");
     };
+    eprintln!("defocus: {defocus}\nmotion: {motion}");
     assert!(
         motion.contains("motion blur") && motion.contains("hold the board still"),
         "{motion}"
