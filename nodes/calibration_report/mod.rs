@@ -28,7 +28,7 @@ use crate::bag::BagError;
 use crate::calibration_stage::{CalibrationOutcome, CameraFrames};
 
 pub use coverage::COVERAGE_COLUMNS;
-pub use rectified_pair::EPIPOLAR_LINES;
+pub use rectified_pair::{EPIPOLAR_LINE_HALF_WIDTH, EPIPOLAR_LINES};
 pub use sample::{SampleImage, SampleImages, read_sample, sample_stamp};
 
 /// What the report is made from.

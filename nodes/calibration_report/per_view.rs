@@ -57,6 +57,7 @@ pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
         chart
             .configure_mesh()
             .disable_x_mesh()
+            .max_light_lines(1)
             .x_labels(frames.len().clamp(2, 20))
             .x_label_formatter(&|x| {
                 if (x - x.round()).abs() < 1e-6 {
@@ -108,9 +109,9 @@ pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
                         if *rms > top {
                             let _ = write!(
                                 marks,
-                                "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\" text-anchor=\"middle\" fill=\"{REJECTED}\">{rms:.1}</text>",
+                                "<text x=\"{:.1}\" y=\"{:.1}\" font-size=\"10\" text-anchor=\"middle\" fill=\"#fff\">{rms:.2}</text>",
                                 0.5 * (x0 + x1),
-                                map.y(top) + 10.0
+                                map.y(top) + 12.0
                             );
                         }
                     }

@@ -20,10 +20,13 @@ use crate::convert::Encoding;
 
 /// Epipolar lines drawn across a rectified pair.
 pub const EPIPOLAR_LINES: usize = 16;
+/// Pixels on each side of an epipolar line's centre: lines are `2 * half + 1` pixels
+/// wide, to stay visible when the picture is shown scaled down.
+pub const EPIPOLAR_LINE_HALF_WIDTH: usize = 1;
 /// The epipolar lines' colour, pure green: never a grey pixel of a mono image.
 const LINE: [u8; 3] = [0, 255, 0];
 
-/// An RGB picture with the rows (or columns) where epipolar lines were drawn.
+/// An 8-bit RGB picture being composed.
 struct Picture {
     width: usize,
     height: usize,
@@ -47,23 +50,30 @@ impl Picture {
         }
     }
 
+    /// Draws a horizontal line centred on row `y`.
     fn row(&mut self, y: usize) {
-        let start = y * self.width * 3;
-        for pixel in self.rgb[start..start + self.width * 3].chunks_exact_mut(3) {
+        let rows = y.saturating_sub(EPIPOLAR_LINE_HALF_WIDTH)
+            ..(y + EPIPOLAR_LINE_HALF_WIDTH + 1).min(self.height);
+        let span = rows.start * self.width * 3..rows.end * self.width * 3;
+        for pixel in self.rgb[span].chunks_exact_mut(3) {
             pixel.copy_from_slice(&LINE);
         }
     }
 
+    /// Draws a vertical line centred on column `x`.
     fn column(&mut self, x: usize) {
-        for y in 0..self.height {
-            let i = (y * self.width + x) * 3;
-            self.rgb[i..i + 3].copy_from_slice(&LINE);
+        let columns = x.saturating_sub(EPIPOLAR_LINE_HALF_WIDTH)
+            ..(x + EPIPOLAR_LINE_HALF_WIDTH + 1).min(self.width);
+        for row in self.rgb.chunks_exact_mut(self.width * 3) {
+            for pixel in row[columns.start * 3..columns.end * 3].chunks_exact_mut(3) {
+                pixel.copy_from_slice(&LINE);
+            }
         }
     }
 
     fn png(&self) -> Result<Vec<u8>, ReportError> {
         let mut png = Vec::new();
-        PngEncoder::new_with_quality(&mut png, CompressionType::Fast, FilterType::Adaptive)
+        PngEncoder::new_with_quality(&mut png, CompressionType::Fast, FilterType::Sub)
             .write_image(
                 &self.rgb,
                 self.width as u32,
@@ -86,8 +96,8 @@ pub(crate) fn line_positions(length: usize) -> Vec<usize> {
 
 /// The rectified pair (stereo) or undistorted image (mono) of `sample`, as an HTML
 /// figure of class `rectified` with the picture's size in `data-width`,
-/// `data-height` and the epipolar lines in `data-epipolar-rows` (horizontal rig) or
-/// `data-epipolar-columns` (vertical rig), space-separated.
+/// `data-height` and the epipolar lines' centres in `data-epipolar-rows` (horizontal
+/// rig) or `data-epipolar-columns` (vertical rig), space-separated.
 pub(crate) fn figure(
     outcome: &CalibrationOutcome,
     sample: &SampleImages,
@@ -108,20 +118,27 @@ pub(crate) fn figure(
         (Some(stereo), [left, right], [left_image, right_image]) => {
             let r = &stereo.rectification;
             let (width, height) = (r.image_size.0 as usize, r.image_size.1 as usize);
-            let left_rgb = rectified_rgb(
-                left,
-                left_image,
-                r.left_rectified_from_original.matrix(),
-                &r.left_projection,
-                (width, height),
-            )?;
-            let right_rgb = rectified_rgb(
-                right,
-                right_image,
-                r.right_rectified_from_original.matrix(),
-                &r.right_projection,
-                (width, height),
-            )?;
+            let (left_rgb, right_rgb) = rayon::join(
+                || {
+                    rectified_rgb(
+                        left,
+                        left_image,
+                        r.left_rectified_from_original.matrix(),
+                        &r.left_projection,
+                        (width, height),
+                    )
+                },
+                || {
+                    rectified_rgb(
+                        right,
+                        right_image,
+                        r.right_rectified_from_original.matrix(),
+                        &r.right_projection,
+                        (width, height),
+                    )
+                },
+            );
+            let (left_rgb, right_rgb) = (left_rgb?, right_rgb?);
             match r.layout {
                 StereoLayout::Horizontal => {
                     let mut picture = Picture::new(2 * width, height);
@@ -237,20 +254,53 @@ fn rectified_rgb(
 /// dropped).
 fn rgb(image: &Image, encoding: Encoding) -> Vec<u8> {
     let channels = image.channels.max(1);
-    let bytes: Vec<u8> = match &image.samples {
-        Samples::U8(v) => v.clone(),
-        Samples::U16(v) => v.iter().map(|s| (s >> 8) as u8).collect(),
-    };
+    let swap = matches!(encoding, Encoding::Bgr8 | Encoding::Bgra8);
     let mut out = Vec::with_capacity(image.width * image.height * 3);
-    for pixel in bytes.chunks_exact(channels) {
-        match (encoding, pixel) {
-            (Encoding::Bgr8 | Encoding::Bgra8, [b, g, r, ..]) => {
-                out.extend_from_slice(&[*r, *g, *b])
+    let mut push = |pixel: &[u8]| match pixel {
+        [b, g, r, ..] if swap => out.extend_from_slice(&[*r, *g, *b]),
+        [r, g, b, ..] => out.extend_from_slice(&[*r, *g, *b]),
+        [grey, ..] => out.extend_from_slice(&[*grey, *grey, *grey]),
+        [] => {}
+    };
+    match &image.samples {
+        Samples::U8(v) => v.chunks_exact(channels).for_each(&mut push),
+        Samples::U16(v) => v.chunks_exact(channels).for_each(|pixel| {
+            let mut high = [0u8; 4];
+            for (h, s) in high.iter_mut().zip(pixel) {
+                *h = (s >> 8) as u8;
             }
-            (_, [r, g, b, ..]) => out.extend_from_slice(&[*r, *g, *b]),
-            (_, [grey, ..]) => out.extend_from_slice(&[*grey, *grey, *grey]),
-            (_, []) => {}
-        }
+            push(&high[..pixel.len().min(4)]);
+        }),
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_encoding_becomes_rgb() {
+        let image = |channels, samples| Image::new(2, 1, channels, samples).unwrap();
+        let mono16 = image(1, Samples::U16(vec![0x1234, 0xff00]));
+        assert_eq!(
+            rgb(&mono16, Encoding::Mono16),
+            [0x12, 0x12, 0x12, 0xff, 0xff, 0xff]
+        );
+        let bgr = image(3, Samples::U8(vec![1, 2, 3, 4, 5, 6]));
+        assert_eq!(rgb(&bgr, Encoding::Bgr8), [3, 2, 1, 6, 5, 4]);
+        assert_eq!(rgb(&bgr, Encoding::Rgb8), [1, 2, 3, 4, 5, 6]);
+        let bgra = image(4, Samples::U8(vec![1, 2, 3, 9, 4, 5, 6, 9]));
+        assert_eq!(rgb(&bgra, Encoding::Bgra8), [3, 2, 1, 6, 5, 4]);
+        assert_eq!(rgb(&bgra, Encoding::Rgba8), [1, 2, 3, 4, 5, 6]);
+    }
+
+    #[test]
+    fn lines_are_evenly_spaced_inside_the_image() {
+        assert_eq!(
+            line_positions(720),
+            (0..16).map(|k| 22 + 45 * k).collect::<Vec<_>>()
+        );
+        assert_eq!(line_positions(8), (0..8).collect::<Vec<_>>());
+    }
 }

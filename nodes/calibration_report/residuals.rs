@@ -38,6 +38,7 @@ pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
             .map_err(&error)?;
         chart
             .configure_mesh()
+            .max_light_lines(1)
             .x_label_formatter(&|x| format!("{x:.2}"))
             .y_label_formatter(&|y| format!("{y:.2}"))
             .x_desc("dx (px)")

@@ -12,10 +12,13 @@ use crate::calibration_stage::{CalibrationOutcome, CameraResult, RejectedFrame, 
 
 /// The summary as HTML.
 pub(crate) fn summary(outcome: &CalibrationOutcome) -> String {
-    let mut out = String::new();
+    let mut out = String::from("<div class=\"cameras\">");
     for camera in &outcome.cameras {
+        out.push_str("<div>");
         out.push_str(&camera_summary(camera));
+        out.push_str("</div>");
     }
+    out.push_str("</div>\n");
     if let Some(stereo) = &outcome.stereo {
         out.push_str(&stereo_summary(stereo));
     }
