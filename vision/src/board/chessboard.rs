@@ -192,18 +192,20 @@ impl TargetDetector for ChessboardDetector {
 
     fn detect_gray(&self, gray: &Gray) -> Option<Detection> {
         let mut found = self.find_board(gray);
-        let mut level = gray.half();
-        let mut scale = 2.0;
-        while found.is_none() && level.width.min(level.height) >= MIN_LEVEL_SIDE {
-            found = self.find_board(&level).map(|(corners, predicted)| {
-                let corners = corners
-                    .into_iter()
-                    .map(|p| Point2::new((p.x + 0.5) * scale - 0.5, (p.y + 0.5) * scale - 0.5))
-                    .collect();
-                (corners, predicted)
-            });
-            level = level.half();
-            scale *= 2.0;
+        if found.is_none() {
+            let mut level = gray.half();
+            let mut scale = 2.0;
+            while found.is_none() && level.width.min(level.height) >= MIN_LEVEL_SIDE {
+                found = self.find_board(&level).map(|(corners, predicted)| {
+                    let corners = corners
+                        .into_iter()
+                        .map(|p| Point2::new((p.x + 0.5) * scale - 0.5, (p.y + 0.5) * scale - 0.5))
+                        .collect();
+                    (corners, predicted)
+                });
+                level = level.half();
+                scale *= 2.0;
+            }
         }
         let (mut corners, predicted) = found?;
         let squares = self.local_squares(&corners);
