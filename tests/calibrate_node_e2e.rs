@@ -1,9 +1,10 @@
 //! End to end: a synthetic stereo calibration session (1024x768, 40 frames, about one
-//! in ten bad) replayed over DDS on loopback into a `calibrate_node` process (on this
+//! in ten bad; 70 for one camera alone) replayed over DDS on loopback into a `calibrate_node` process (on this
 //! test's own ROS domain); `~/calibrate` and `~/commit` called through service clients,
 //! the written camera_info files checked against ground truth, and a fake camera's
 //! `set_camera_info` receiving the same calibration. A second test kills the node
-//! mid-session and finds the samples again after a restart.
+//! mid-session and finds the samples again after a restart; a third calibrates the left
+//! camera alone with `auto_calibrate`.
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -30,10 +31,28 @@ use stereocal_msgs::std_msgs;
 use stereocal_msgs::std_srvs::srv::{TriggerRequest, TriggerResponse};
 use stereocal_vision::synth::GroundTruth;
 
-/// Namespace of the pair and of the node.
-const NAMESPACE: &str = "/stereo";
-/// The node's fully qualified name.
-const NODE: &str = "/stereo/calibrate_node";
+/// What the node calibrates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Rig {
+    /// The pair, in namespace `/stereo`, calibrated on `~/calibrate`.
+    Stereo,
+    /// The left camera alone, in namespace `/camera`, with `auto_calibrate`.
+    MonoAuto,
+}
+
+impl Rig {
+    fn namespace(self) -> &'static str {
+        match self {
+            Rig::Stereo => "/stereo",
+            Rig::MonoAuto => "/camera",
+        }
+    }
+
+    /// The node's fully qualified name.
+    fn node(self) -> String {
+        format!("{}/calibrate_node", self.namespace())
+    }
+}
 /// How long one frame may take to be judged before it is sent again.
 const FRAME_TIMEOUT: Duration = Duration::from_secs(5);
 
@@ -46,39 +65,47 @@ struct Session {
 /// The 40-frame stereo session, synthesized once for every test of this binary.
 fn session() -> &'static Session {
     static SESSION: OnceLock<Session> = OnceLock::new();
-    SESSION.get_or_init(|| {
-        let dir = tempfile::tempdir().expect("temp dir");
-        stereocal::cli::synth::run(&SynthArgs {
-            scene: SceneArg::Calibration,
-            out: dir.path().to_path_buf(),
-            seed: 3,
-            frames: Some(40),
-            width: 1024,
-            height: 768,
-            model: ModelArg::PlumbBob,
-            bad_frames: None,
-            rgb: false,
-            vertical: false,
-        })
-        .expect("synth");
-        let text = std::fs::read_to_string(dir.path().join("ground_truth.json")).expect("truth");
-        let truth: GroundTruth = serde_json::from_str(&text).expect("truth json");
-        let reader = BagReader::open(dir.path().join("bag")).expect("bag");
-        let read = |topic: &str| -> Vec<Image> {
-            reader
-                .messages(&TopicFilter::only([topic]))
-                .map(|m| m.expect("message").decode::<Image>().expect("image"))
-                .collect()
-        };
-        let left = read("/stereo/left/image_raw");
-        let right = read("/stereo/right/image_raw");
-        assert_eq!(left.len(), 40);
-        assert_eq!(right.len(), 40);
-        Session {
-            truth,
-            pairs: left.into_iter().zip(right).collect(),
-        }
+    SESSION.get_or_init(|| synthesize(3, 40))
+}
+
+/// A longer session (70 frames) for one camera alone, whose coverage needs more views.
+fn long_session() -> &'static Session {
+    static SESSION: OnceLock<Session> = OnceLock::new();
+    SESSION.get_or_init(|| synthesize(5, 70))
+}
+
+fn synthesize(seed: u64, frames: usize) -> Session {
+    let dir = tempfile::tempdir().expect("temp dir");
+    stereocal::cli::synth::run(&SynthArgs {
+        scene: SceneArg::Calibration,
+        out: dir.path().to_path_buf(),
+        seed,
+        frames: Some(frames),
+        width: 1024,
+        height: 768,
+        model: ModelArg::PlumbBob,
+        bad_frames: None,
+        rgb: false,
+        vertical: false,
     })
+    .expect("synth");
+    let text = std::fs::read_to_string(dir.path().join("ground_truth.json")).expect("truth");
+    let truth: GroundTruth = serde_json::from_str(&text).expect("truth json");
+    let reader = BagReader::open(dir.path().join("bag")).expect("bag");
+    let read = |topic: &str| -> Vec<Image> {
+        reader
+            .messages(&TopicFilter::only([topic]))
+            .map(|m| m.expect("message").decode::<Image>().expect("image"))
+            .collect()
+    };
+    let left = read("/stereo/left/image_raw");
+    let right = read("/stereo/right/image_raw");
+    assert_eq!(left.len(), frames);
+    assert_eq!(right.len(), frames);
+    Session {
+        truth,
+        pairs: left.into_iter().zip(right).collect(),
+    }
 }
 
 /// A ROS domain of this test process only: `offset` tells the tests of this binary
@@ -94,31 +121,50 @@ struct NodeProcess {
 }
 
 impl NodeProcess {
-    fn start(domain: u16, dir: &Path) -> Self {
+    /// Starts the node for `rig` with its state and camera_info files in `dir`.
+    fn start(domain: u16, dir: &Path, rig: Rig) -> Self {
         let state = dir.join("state");
         let url = |name: &str| format!("file://{}", dir.join(format!("{name}.yaml")).display());
+        let mut args: Vec<String> = [
+            "--ros-args",
+            "-r",
+            &format!("__ns:={}", rig.namespace()),
+            "-p",
+            "size:=9x6",
+            "-p",
+            "square:=0.025",
+            "-p",
+            &format!("state_dir:={}", state.display()),
+        ]
+        .map(String::from)
+        .to_vec();
+        let rig_args = match rig {
+            Rig::Stereo => vec![
+                "-r".into(),
+                "left/image:=left/image_raw".into(),
+                "-r".into(),
+                "right/image:=right/image_raw".into(),
+                "-p".into(),
+                "stereo:=true".into(),
+                "-p".into(),
+                format!("left_camera_info_url:={}", url("left")),
+                "-p".into(),
+                format!("right_camera_info_url:={}", url("right")),
+            ],
+            Rig::MonoAuto => vec![
+                "-r".into(),
+                "image:=image_raw".into(),
+                "-p".into(),
+                "camera_name:=left".into(),
+                "-p".into(),
+                "auto_calibrate:=true".into(),
+                "-p".into(),
+                format!("camera_info_url:={}", url("${NAME}")),
+            ],
+        };
+        args.extend(rig_args);
         let mut child = Command::new(env!("CARGO_BIN_EXE_calibrate_node"))
-            .args([
-                "--ros-args",
-                "-r",
-                &format!("__ns:={NAMESPACE}"),
-                "-r",
-                "left/image:=left/image_raw",
-                "-r",
-                "right/image:=right/image_raw",
-                "-p",
-                "stereo:=true",
-                "-p",
-                "size:=9x6",
-                "-p",
-                "square:=0.025",
-                "-p",
-                &format!("state_dir:={}", state.display()),
-                "-p",
-                &format!("left_camera_info_url:={}", url("left")),
-                "-p",
-                &format!("right_camera_info_url:={}", url("right")),
-            ])
+            .args(&args)
             .env("ROS_DOMAIN_ID", domain.to_string())
             .env("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
             .stdin(Stdio::null())
@@ -174,8 +220,9 @@ impl Drop for NodeProcess {
 /// services, and a fake left camera serving `left/set_camera_info`.
 struct Player {
     left: Publisher<Image>,
-    right: Publisher<Image>,
+    right: Option<Publisher<Image>>,
     status: Subscription<std_msgs::String>,
+    annotated: Subscription<Image>,
     calibrate: ServiceClient<TriggerRequest, TriggerResponse>,
     commit: ServiceClient<TriggerRequest, TriggerResponse>,
     camera_info_received: Arc<Mutex<Vec<CameraInfo>>>,
@@ -201,7 +248,7 @@ fn topic(
 }
 
 impl Player {
-    fn new(domain: u16) -> Self {
+    fn new(domain: u16, rig: Rig) -> Self {
         let transport = TransportConfig {
             range: DiscoveryRange::Localhost,
             ..TransportConfig::rustdds_defaults()
@@ -217,22 +264,52 @@ impl Player {
         std::thread::spawn(move || {
             let _ = futures::executor::block_on(spinner.spin());
         });
-        let left_topic = topic(&mut node, "/stereo/left/image_raw", "sensor_msgs", "Image");
-        let right_topic = topic(&mut node, "/stereo/right/image_raw", "sensor_msgs", "Image");
-        let status_topic = topic(&mut node, &format!("{NODE}/status"), "std_msgs", "String");
+        let ns = rig.namespace();
+        let (left_name, camera_service, annotated_name) = match rig {
+            Rig::Stereo => (
+                format!("{ns}/left/image_raw"),
+                format!("{ns}/left/set_camera_info"),
+                format!("{}/left/annotated_image", rig.node()),
+            ),
+            Rig::MonoAuto => (
+                format!("{ns}/image_raw"),
+                format!("{ns}/set_camera_info"),
+                format!("{}/annotated_image", rig.node()),
+            ),
+        };
+        let left_topic = topic(&mut node, &left_name, "sensor_msgs", "Image");
         let left = node.create_publisher(&left_topic, None).expect("left");
-        let right = node.create_publisher(&right_topic, None).expect("right");
+        let right = (rig == Rig::Stereo).then(|| {
+            let right_topic = topic(
+                &mut node,
+                &format!("{ns}/right/image_raw"),
+                "sensor_msgs",
+                "Image",
+            );
+            node.create_publisher(&right_topic, None).expect("right")
+        });
+        let annotated_topic = topic(&mut node, &annotated_name, "sensor_msgs", "Image");
+        let annotated = node
+            .create_subscription(&annotated_topic, Some(qos::reliable(50)))
+            .expect("annotated");
+        let status_topic = topic(
+            &mut node,
+            &format!("{}/status", rig.node()),
+            "std_msgs",
+            "String",
+        );
         let status = node
             .create_subscription(
                 &status_topic,
                 Some(qos::reliable(10).durability(ros2_client::qos::Durability::TransientLocal)),
             )
             .expect("status");
-        let calibrate = create_client(&mut node, &format!("{NODE}/calibrate")).expect("client");
-        let commit = create_client(&mut node, &format!("{NODE}/commit")).expect("client");
+        let calibrate =
+            create_client(&mut node, &format!("{}/calibrate", rig.node())).expect("client");
+        let commit = create_client(&mut node, &format!("{}/commit", rig.node())).expect("client");
         let server = create_server::<SetCameraInfoRequest, SetCameraInfoResponse>(
             &mut node,
-            "/stereo/left/set_camera_info",
+            &camera_service,
         )
         .expect("server");
         let camera_info_received = Arc::new(Mutex::new(Vec::new()));
@@ -260,6 +337,7 @@ impl Player {
             left,
             right,
             status,
+            annotated,
             calibrate,
             commit,
             camera_info_received,
@@ -281,6 +359,15 @@ impl Player {
         got
     }
 
+    /// Annotated images received so far.
+    fn annotated_images(&self) -> Vec<Image> {
+        let mut images = Vec::new();
+        while let Ok(Some((image, _))) = self.annotated.take() {
+            images.push(image);
+        }
+        images
+    }
+
     fn status_count(&self, key: &str) -> u64 {
         match key {
             "samples" => self.last_status["samples"].as_u64().unwrap_or(0),
@@ -298,14 +385,17 @@ impl Player {
         }
     }
 
-    /// Publishes one pair and waits until the node has judged it (sending it again
+    /// Publishes one pair (the left image alone to a mono node) and waits until the node
+    /// has judged it (sending it again
     /// while the node's readers have not matched ours yet, as frames are best-effort).
     fn send_pair(&mut self, pair: &(Image, Image)) {
         let judged = self.status_count("judged");
         let deadline = Instant::now() + Duration::from_secs(30);
         loop {
             self.left.publish(pair.0.clone()).expect("publish left");
-            self.right.publish(pair.1.clone()).expect("publish right");
+            if let Some(right) = &self.right {
+                right.publish(pair.1.clone()).expect("publish right");
+            }
             let resend = Instant::now() + FRAME_TIMEOUT.min(Duration::from_secs(1));
             while Instant::now() < resend {
                 self.poll_status();
@@ -387,8 +477,8 @@ fn a_replayed_stereo_session_calibrates_and_commits_camera_info_near_the_truth()
     let session = session();
     let dir = tempfile::tempdir().expect("temp dir");
     let domain = domain_id(0);
-    let mut player = Player::new(domain);
-    let node = NodeProcess::start(domain, dir.path());
+    let mut player = Player::new(domain, Rig::Stereo);
+    let node = NodeProcess::start(domain, dir.path(), Rig::Stereo);
     player.wait_for_node();
     assert_eq!(player.status_count("samples"), 0);
 
@@ -396,6 +486,21 @@ fn a_replayed_stereo_session_calibrates_and_commits_camera_info_near_the_truth()
         player.send_pair(pair);
     }
     let samples = player.status_count("samples");
+    assert_eq!(
+        player.status_count("received"),
+        40,
+        "{}",
+        player.last_status
+    );
+    assert_eq!(player.status_count("dropped"), 0, "{}", player.last_status);
+    let annotated = player.annotated_images();
+    assert!(!annotated.is_empty(), "no annotated image");
+    for image in &annotated {
+        assert_eq!(
+            (image.encoding.as_str(), image.width, image.height),
+            ("rgb8", 1024, 768)
+        );
+    }
     assert!(
         player.last_status["ready"].as_bool() == Some(true),
         "{}",
@@ -409,6 +514,7 @@ fn a_replayed_stereo_session_calibrates_and_commits_camera_info_near_the_truth()
 
     let calibrated = player.trigger("calibrate");
     assert!(calibrated.success, "{}", calibrated.message);
+    println!("{samples} samples of 40 frames; {}", calibrated.message);
     for part in ["left: RMS", "right: RMS", "epipolar RMS"] {
         assert!(calibrated.message.contains(part), "{}", calibrated.message);
     }
@@ -454,8 +560,8 @@ fn samples_survive_a_killed_node() {
     let session = session();
     let dir = tempfile::tempdir().expect("temp dir");
     let domain = domain_id(1);
-    let mut player = Player::new(domain);
-    let node = NodeProcess::start(domain, dir.path());
+    let mut player = Player::new(domain, Rig::Stereo);
+    let node = NodeProcess::start(domain, dir.path(), Rig::Stereo);
     player.wait_for_node();
 
     let mut sent = 0;
@@ -469,7 +575,7 @@ fn samples_survive_a_killed_node() {
 
     // The restarted node reports the samples it found in state_dir before any frame.
     player.poll_status();
-    let node = NodeProcess::start(domain, dir.path());
+    let node = NodeProcess::start(domain, dir.path(), Rig::Stereo);
     player.wait_for_node();
     assert_eq!(
         player.status_count("samples"),
@@ -486,4 +592,65 @@ fn samples_survive_a_killed_node() {
     let calibrated = player.trigger("calibrate");
     let logs = node.terminate();
     assert!(calibrated.success, "{}\n{logs}", calibrated.message);
+}
+
+#[test]
+fn a_mono_node_calibrates_by_itself_once_coverage_is_ready() {
+    let session = long_session();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let domain = domain_id(40);
+    let mut player = Player::new(domain, Rig::MonoAuto);
+    let node = NodeProcess::start(domain, dir.path(), Rig::MonoAuto);
+    player.wait_for_node();
+    for pair in &session.pairs {
+        player.send_pair(pair);
+        if !player.last_status["calibration"].is_null() {
+            break;
+        }
+    }
+    let calibration = player.last_status["calibration"].clone();
+    assert!(
+        player.last_status["ready"].as_bool() == Some(true),
+        "{}",
+        player.last_status
+    );
+    let camera = &calibration["cameras"][0];
+    assert_eq!(camera["name"], "left", "{calibration}");
+    assert!(calibration["stereo"].is_null());
+    let expected = session.truth.cameras[0]
+        .camera_model()
+        .expect("model")
+        .intrinsics;
+    let k: Vec<f64> = serde_json::from_value(camera["k"].clone()).expect("k");
+    for (what, got, want) in [
+        ("fx", k[0], expected.fx),
+        ("fy", k[4], expected.fy),
+        ("cx", k[2], expected.cx),
+        ("cy", k[5], expected.cy),
+    ] {
+        assert!(
+            (got - want).abs() < 0.2,
+            "{what}: {got:.4} against {want:.4}"
+        );
+    }
+
+    let committed = player.trigger("commit");
+    let logs = node.terminate();
+    assert!(committed.success, "{}\n{logs}", committed.message);
+    assert!(
+        committed
+            .message
+            .contains("acknowledged by /camera/set_camera_info"),
+        "{}",
+        committed.message
+    );
+    let file = CameraInfoFile::read(yaml(dir.path(), "left")).expect("left.yaml");
+    assert_eq!(file.info.k.to_vec(), k);
+    // A mono camera: R = I and P = [K | 0].
+    assert_eq!(file.info.r, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
+    assert_eq!(
+        player.camera_info_received.lock().expect("lock")[0].k,
+        file.info.k
+    );
+    assert!(logs.contains("coverage is ready: calibrating"), "{logs}");
 }
