@@ -18,8 +18,9 @@ use stereocal_vision::camera::CameraModel;
 use stereocal_vision::synth::GroundTruth;
 
 /// Synthesizes a 1024x768 stereo calibration session of `frames` frames into `dir`
-/// with a fraction `bad` of bad frames.
-fn synthesize(dir: &Path, frames: usize, bad: f64) -> GroundTruth {
+/// with a fraction `bad` of bad frames, the cameras side by side or one above the other
+/// (`vertical`).
+fn synthesize(dir: &Path, frames: usize, bad: f64, vertical: bool) -> GroundTruth {
     stereocal::cli::synth::run(&SynthArgs {
         scene: SceneArg::Calibration,
         out: dir.to_path_buf(),
@@ -30,7 +31,7 @@ fn synthesize(dir: &Path, frames: usize, bad: f64) -> GroundTruth {
         model: ModelArg::PlumbBob,
         bad_frames: Some(bad),
         rgb: false,
-        vertical: false,
+        vertical,
     })
     .unwrap();
     let text = std::fs::read_to_string(dir.join("ground_truth.json")).unwrap();
@@ -133,7 +134,7 @@ fn picture(html: &str) -> image::RgbImage {
 #[test]
 fn stereo_report_shows_the_calibration_it_reports() {
     let dir = tempfile::tempdir().unwrap();
-    let truth = synthesize(dir.path(), 14, 0.25);
+    let truth = synthesize(dir.path(), 14, 0.25, false);
     let report = calibrate(dir.path(), &truth, None);
     let outcome = &report.outcome;
     assert_eq!(report.report, dir.path().join("calibration/report.html"));
@@ -179,6 +180,21 @@ fn stereo_report_shows_the_calibration_it_reports() {
         }
         rejected_views += camera.rejected.len();
 
+        // The summary lists each rejected view with its stamp and reason.
+        let summary = element(&html, "table", "camera-summary", Some(&camera.name));
+        assert!(summary.contains(&format!(
+            "{} used, {} rejected",
+            camera.used.len(),
+            camera.rejected.len()
+        )));
+        for rejected in &camera.rejected {
+            let stamp = format!("{}.{:09} s", rejected.stamp.sec, rejected.stamp.nanosec);
+            assert!(
+                html.contains(&format!("<td class=\"stamp\">{stamp}</td>")),
+                "{stamp}"
+            );
+        }
+
         // The coverage heat-map counts every used corner once.
         let coverage = element(&html, "figure", "coverage", Some(&camera.name));
         let counts = coverage_counts(coverage);
@@ -207,6 +223,12 @@ fn stereo_report_shows_the_calibration_it_reports() {
     // The rectified pair side by side, green epipolar lines evenly spaced (each
     // `2 * EPIPOLAR_LINE_HALF_WIDTH + 1` rows) and nothing else green.
     let stereo = outcome.stereo.as_ref().unwrap();
+    let baseline = stereo.calibration.right_from_left.translation.vector.norm() * 1e3;
+    let summary = element(&html, "table", "stereo-summary", None);
+    assert!(
+        summary.contains(&format!("<td>{baseline:.3} mm</td>")),
+        "{summary}"
+    );
     let (width, height) = stereo.rectification.image_size;
     let image = picture(&html);
     assert_eq!(image.dimensions(), (2 * width, height));
@@ -263,7 +285,7 @@ fn stereo_report_shows_the_calibration_it_reports() {
 #[test]
 fn mono_report_shows_the_undistorted_image() {
     let dir = tempfile::tempdir().unwrap();
-    let truth = synthesize(dir.path(), 4, 0.0);
+    let truth = synthesize(dir.path(), 4, 0.0, false);
     let report = calibrate(dir.path(), &truth, Some("/stereo/left/image_raw"));
     let html = std::fs::read_to_string(&report.report).unwrap();
     let [camera] = report.outcome.cameras.as_slice() else {
@@ -280,4 +302,36 @@ fn mono_report_shows_the_undistorted_image() {
     let image = picture(&html);
     assert_eq!(image.dimensions(), (1024, 768));
     assert!(image.pixels().all(|p| p[0] == p[1] && p[1] == p[2]));
+}
+
+#[test]
+fn vertical_rig_has_epipolar_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let truth = synthesize(dir.path(), 6, 0.0, true);
+    let report = calibrate(dir.path(), &truth, None);
+    let html = std::fs::read_to_string(&report.report).unwrap();
+    let stereo = report.outcome.stereo.as_ref().unwrap();
+    let (width, height) = stereo.rectification.image_size;
+    let image = picture(&html);
+    assert_eq!(image.dimensions(), (width, 2 * height));
+    let figure = element(&html, "figure", "rectified", None);
+    assert!(attribute(figure, "data-epipolar-rows").is_none());
+    let columns: Vec<u32> = attribute(figure, "data-epipolar-columns")
+        .unwrap()
+        .split(' ')
+        .map(|c| c.parse().unwrap())
+        .collect();
+    let spacing = width / EPIPOLAR_LINES as u32;
+    let expected: Vec<u32> = (0..EPIPOLAR_LINES as u32)
+        .map(|k| spacing / 2 + k * spacing)
+        .collect();
+    assert_eq!(columns, expected);
+    let half = EPIPOLAR_LINE_HALF_WIDTH as u32;
+    for (x, y, pixel) in image.enumerate_pixels() {
+        if columns.iter().any(|c| c.abs_diff(x) <= half) {
+            assert_eq!(pixel.0, [0, 255, 0], "({x}, {y})");
+        } else {
+            assert!(pixel[0] == pixel[1] && pixel[1] == pixel[2], "({x}, {y})");
+        }
+    }
 }

@@ -7,7 +7,7 @@ const STYLE: &str = "body{font-family:sans-serif;margin:1.5em auto;max-width:140
 h1{font-size:1.6em}h2{font-size:1.3em;border-bottom:1px solid #ccc;padding-bottom:.2em;margin-top:1.6em}\
 h3{font-size:1.05em;margin:.8em 0 .3em}\
 table{border-collapse:collapse;margin:.4em 0 1em}td,th{border:1px solid #ddd;padding:.2em .6em;text-align:right}\
-th{background:#f4f4f4}td.text{text-align:left}\
+th{background:#f4f4f4}td.text{text-align:left}td.stamp{white-space:nowrap}\
 .cameras{display:flex;flex-wrap:wrap;gap:1.5em}.cameras>figure,.cameras>div{flex:1 1 560px;margin:0}\
 figure{margin:0 0 1em}figcaption{font-size:.9em;color:#555;margin-top:.3em}\
 svg.chart{max-width:100%;height:auto}img.picture{max-width:100%;height:auto;image-rendering:auto}\

@@ -100,7 +100,7 @@ fn rejected_list(what: &str, rejected: &[RejectedFrame]) -> String {
     for r in rejected {
         let _ = write!(
             out,
-            "<tr><td>{}</td><td class=\"text rejected\">{}</td></tr>",
+            "<tr><td class=\"stamp\">{}</td><td class=\"text rejected\">{}</td></tr>",
             stamp_text(&r.stamp),
             escape(&r.reason)
         );
