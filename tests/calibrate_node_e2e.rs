@@ -3,7 +3,8 @@
 //! test's own ROS domain); `~/calibrate` and `~/commit` called through service clients,
 //! the written camera_info files checked against ground truth, and a fake camera's
 //! `set_camera_info` receiving the same calibration. A second test kills the node
-//! mid-session and finds the samples again after a restart; a third calibrates the left
+//! mid-session and finds the samples again after a restart (and none after `~/reset`);
+//! a third calibrates the left
 //! camera alone with `auto_calibrate`.
 
 use std::io::Read;
@@ -225,6 +226,7 @@ struct Player {
     annotated: Subscription<Image>,
     calibrate: ServiceClient<TriggerRequest, TriggerResponse>,
     commit: ServiceClient<TriggerRequest, TriggerResponse>,
+    reset: ServiceClient<TriggerRequest, TriggerResponse>,
     camera_info_received: Arc<Mutex<Vec<CameraInfo>>>,
     camera_stop: Arc<AtomicBool>,
     camera: Option<JoinHandle<()>>,
@@ -307,6 +309,7 @@ impl Player {
         let calibrate =
             create_client(&mut node, &format!("{}/calibrate", rig.node())).expect("client");
         let commit = create_client(&mut node, &format!("{}/commit", rig.node())).expect("client");
+        let reset = create_client(&mut node, &format!("{}/reset", rig.node())).expect("client");
         let server = create_server::<SetCameraInfoRequest, SetCameraInfoResponse>(
             &mut node,
             &camera_service,
@@ -340,6 +343,7 @@ impl Player {
             annotated,
             calibrate,
             commit,
+            reset,
             camera_info_received,
             camera_stop,
             camera: Some(camera),
@@ -412,10 +416,10 @@ impl Player {
     }
 
     fn trigger(&self, which: &str) -> TriggerResponse {
-        let client = if which == "calibrate" {
-            &self.calibrate
-        } else {
-            &self.commit
+        let client = match which {
+            "calibrate" => &self.calibrate,
+            "commit" => &self.commit,
+            _ => &self.reset,
         };
         assert!(
             wait_for_server(&self.node, client, Duration::from_secs(10)),
@@ -584,14 +588,48 @@ fn samples_survive_a_killed_node() {
         player.last_status
     );
     assert_eq!(player.status_count("judged"), 0);
+    let early = player.trigger("calibrate");
+    assert!(!early.success);
+    assert!(
+        early.message.contains("not enough samples to calibrate"),
+        "{}",
+        early.message
+    );
+    let early_commit = player.trigger("commit");
+    assert!(!early_commit.success);
+    assert!(
+        early_commit.message.contains("call ~/calibrate first"),
+        "{}",
+        early_commit.message
+    );
 
     for pair in &session.pairs[sent..] {
         player.send_pair(pair);
     }
     assert!(player.status_count("samples") > kept);
     let calibrated = player.trigger("calibrate");
+    assert!(calibrated.success, "{}", calibrated.message);
+
+    // Reset forgets the samples, here and in the store.
+    let reset = player.trigger("reset");
+    assert!(reset.success, "{}", reset.message);
+    let deadline = Instant::now() + Duration::from_secs(5);
+    while player.status_count("samples") > 0 && Instant::now() < deadline {
+        player.poll_status();
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    assert_eq!(player.status_count("samples"), 0, "{}", player.last_status);
+    assert!(player.last_status["calibration"].is_null());
     let logs = node.terminate();
-    assert!(calibrated.success, "{}\n{logs}", calibrated.message);
+    let node = NodeProcess::start(domain, dir.path(), Rig::Stereo);
+    player.wait_for_node();
+    assert_eq!(
+        player.status_count("samples"),
+        0,
+        "{}\n{logs}",
+        player.last_status
+    );
+    drop(node);
 }
 
 #[test]
