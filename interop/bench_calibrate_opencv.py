@@ -8,11 +8,13 @@ Its images are written as PNG, then timed, median over --repeats runs of each:
 (a) detection per image: stereocal (the `calib_timing` example) against
     cv2.findChessboardCorners (default flags) + cv2.cornerSubPix (11x11 window, 30
     iterations / 0.001, as OpenCV's calibration tutorial) on the same decoded images
-    (decoding is not timed). One thread: one image after the other with one thread
+    (decoding is not timed), in rounds of one pass of each. One thread: one image after the other with one thread
     each (cv2.setNumThreads(1), a one-thread rayon pool). All threads: the images
     spread over one worker per core (a thread pool calling OpenCV, which releases the
-    GIL; a rayon pool for stereocal). Also on the real 640x480 pairs of
-    ../shared/data/opencv-stereo when that folder is there.
+    GIL; a rayon pool for stereocal). Reported: the mean per image over all images
+    (frames without a whole board included: OpenCV spends much longer on them), and
+    the median of each image's time over the images both found the board in. Also on
+    the real 640x480 pairs of ../shared/data/opencv-stereo when that folder is there.
 (b) the mono solve on the same corners (stereocal's, from (a)): calibrate_mono
     against cv2.calibrateCamera, plumb_bob with every view kept, per camera; and the
     stereo solve with the intrinsics held against cv2.stereoCalibrate
@@ -72,15 +74,19 @@ def median_time(run, repeats):
     return statistics.median(times)
 
 
-def opencv_detection_seconds(images, size, repeats):
-    """Seconds per image with one thread and with one worker per core, and the found flags."""
-    found = [opencv_detect(g, size) is not None for g in images]
+def opencv_detection_round(images, size, pool):
+    """One round: each image's seconds with one thread, and the mean seconds per image
+    with one worker per core."""
     cv2.setNumThreads(1)
-    one = median_time(lambda: [opencv_detect(g, size) for g in images], repeats)
+    each = []
+    for gray in images:
+        start = time.perf_counter()
+        opencv_detect(gray, size)
+        each.append(time.perf_counter() - start)
     cv2.setNumThreads(0)
-    with ThreadPoolExecutor(CORES) as pool:
-        every = median_time(lambda: list(pool.map(lambda g: opencv_detect(g, size), images)), repeats)
-    return one / len(images), every / len(images), found
+    start = time.perf_counter()
+    list(pool.map(lambda g: opencv_detect(g, size), images))
+    return each, (time.perf_counter() - start) / len(images)
 
 
 def ours(example, command, args):
@@ -89,25 +95,42 @@ def ours(example, command, args):
     return json.loads(out)
 
 
-def ours_detection_seconds(example, paths, cols, rows, repeats, corners=None):
-    extra = ["--corners", corners] if corners else []
-    common = ["--size", f"{cols}x{rows}", "--repeats", repeats, *extra, *paths]
-    one = ours(example, "detect", ["--threads", 1, *common])
-    every = ours(example, "detect", ["--threads", 0, *common])
-    return one["seconds_per_image"], every["seconds_per_image"], one["detected"]
-
-
 def detection_rows(label, example, paths, size, repeats, corners=None):
+    """Rounds of OpenCV then stereocal, so that a change of the machine's load between
+    them weighs on both; medians over the rounds."""
     images = [cv2.imread(str(p), cv2.IMREAD_GRAYSCALE) for p in paths]
-    cv_one, cv_all, cv_found = opencv_detection_seconds(images, size, repeats)
-    our_one, our_all, our_found = ours_detection_seconds(example, paths, *size, repeats, corners)
+    cv_found = [opencv_detect(g, size) is not None for g in images]
+    extra = ["--corners", corners] if corners else []
+    common = ["--size", f"{size[0]}x{size[1]}", "--repeats", 1, *extra, *paths]
+    rounds = {"cv_each": [], "cv_all": [], "our_each": [], "our_all": []}
+    with ThreadPoolExecutor(CORES) as pool:
+        for _ in range(repeats):
+            each, every = opencv_detection_round(images, size, pool)
+            rounds["cv_each"].append(each)
+            rounds["cv_all"].append(every)
+            one = ours(example, "detect", ["--threads", 1, *common])
+            rounds["our_each"].append(one["seconds_each"])
+            rounds["our_all"].append(ours(example, "detect", ["--threads", 0, *common])["seconds_per_image"])
+    our_found = one["detected"]
+
+    def per_image(key):
+        return [statistics.median(r[i] for r in rounds[key]) for i in range(len(images))]
+
+    cv_each, our_each = per_image("cv_each"), per_image("our_each")
+    both = [i for i, (a, b) in enumerate(zip(cv_found, our_found)) if a and b]
     h, w = images[0].shape
     print(f"\n(a) detection per image, {label}: {len(images)} images of {w}x{h}, "
-          f"found by stereocal {sum(our_found)}, by OpenCV {sum(cv_found)}")
-    for threads, cv_s, our_s in (("1 thread", cv_one, our_one), (f"{CORES} threads", cv_all, our_all)):
-        print(f"    {threads:10} OpenCV {cv_s * 1e3:7.2f} ms   stereocal {our_s * 1e3:7.2f} ms   "
+          f"found by stereocal {sum(our_found)}, by OpenCV {sum(cv_found)}; ms")
+    rows = (
+        ("mean, 1 thread", statistics.fmean(cv_each), statistics.fmean(our_each)),
+        (f"mean, {CORES} threads", statistics.median(rounds["cv_all"]),
+         statistics.median(rounds["our_all"])),
+        (f"median over the {len(both)} found by both, 1 thread",
+         statistics.median(cv_each[i] for i in both), statistics.median(our_each[i] for i in both)),
+    )
+    for name, cv_s, our_s in rows:
+        print(f"    {name:42} OpenCV {cv_s * 1e3:7.2f}   stereocal {our_s * 1e3:7.2f}   "
               f"ratio {cv_s / our_s:5.2f}x")
-    return {"1 thread": cv_one / our_one, "all threads": cv_all / our_all}
 
 
 def solve_rows(example, corners_path, repeats):
@@ -203,13 +226,17 @@ def whole_rows(args, bag, out, cols, rows, square, repeats):
     cv_cmd = [sys.executable, __file__, "--opencv-pipeline", str(bag), str(out / "opencv"),
               "--size", f"{cols}x{rows}", "--square", str(square)]
 
-    def run(cmd, env=None):
-        return lambda: subprocess.run(cmd, check=True, capture_output=True, env=env)
-
     one_thread = dict(os.environ, RAYON_NUM_THREADS="1")
-    ours_all = median_time(run(ours_cmd), repeats)
-    ours_one = median_time(run(ours_cmd, one_thread), repeats)
-    opencv = median_time(run(cv_cmd), repeats)
+    runs = {"ours_all": (ours_cmd, None), "ours_one": (ours_cmd, one_thread), "opencv": (cv_cmd, None)}
+    times = {name: [] for name in runs}
+    # A first round untimed (file cache), then rounds of each, medians over the rounds.
+    for round_ in range(repeats + 1):
+        for name, (cmd, env) in runs.items():
+            start = time.perf_counter()
+            subprocess.run(cmd, check=True, capture_output=True, env=env)
+            if round_:
+                times[name].append(time.perf_counter() - start)
+    ours_all, ours_one, opencv = (statistics.median(times[n]) for n in ("ours_all", "ours_one", "opencv"))
     start = time.perf_counter()
     opencv_pipeline(bag, out / "opencv_in_process", cols, rows, square)
     in_process = time.perf_counter() - start

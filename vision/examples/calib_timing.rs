@@ -10,7 +10,8 @@
 //! `detect` decodes every image first (decoding is not timed), then detects the board
 //! in each: with `--threads 1` one image after the other on one thread, otherwise the
 //! images spread over a pool of that many threads (0: one per core). It prints JSON:
-//! the median over the repeats of the time per image, and which images had the board.
+//! the median over the repeats of the mean time per image, with one thread also each
+//! image's median time, and which images had the board.
 //! `--corners` writes the corners found (pixel centres at integer coordinates) with
 //! the board's points (in squares), the input of `mono` and `stereo`. Images are named
 //! `<camera>_<frame>`. `mono` times `calibrate_mono` (plumb_bob, every view kept, as
@@ -112,18 +113,30 @@ fn detect(args: &Args, pool: &rayon::ThreadPool) -> Result<()> {
         .iter()
         .map(|p| load_gray(p))
         .collect::<Result<Vec<_>>>()?;
-    let run = || -> Vec<Option<board::Detection>> {
-        if args.threads == 1 {
-            grays.iter().map(|g| detector.detect_gray(g)).collect()
-        } else {
-            grays.par_iter().map(|g| detector.detect_gray(g)).collect()
-        }
-    };
+    // A first pass untimed, as the repeats find the allocator and caches warm.
+    pool.install(|| grays.iter().for_each(|g| drop(detector.detect_gray(g))));
+    // One thread: each image timed on its own. More: the batch, spread over the pool.
     let mut found = Vec::new();
     let mut per_image = Vec::new();
+    let mut each: Vec<Vec<f64>> = vec![Vec::new(); grays.len()];
     for _ in 0..args.repeats {
         let start = Instant::now();
-        found = pool.install(run);
+        found = if args.threads == 1 {
+            pool.install(|| {
+                grays
+                    .iter()
+                    .zip(&mut each)
+                    .map(|(gray, times)| {
+                        let start = Instant::now();
+                        let detection = detector.detect_gray(gray);
+                        times.push(start.elapsed().as_secs_f64());
+                        detection
+                    })
+                    .collect()
+            })
+        } else {
+            pool.install(|| grays.par_iter().map(|g| detector.detect_gray(g)).collect())
+        };
         per_image.push(start.elapsed().as_secs_f64() / grays.len() as f64);
     }
     if let Some(path) = &args.corners {
@@ -162,6 +175,7 @@ fn detect(args: &Args, pool: &rayon::ThreadPool) -> Result<()> {
             "images": grays.len(),
             "threads": pool.current_num_threads(),
             "seconds_per_image": median(per_image),
+            "seconds_each": each.into_iter().filter(|t| !t.is_empty()).map(median).collect::<Vec<_>>(),
             "detected": detected,
         })
     );
