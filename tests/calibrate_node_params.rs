@@ -11,8 +11,17 @@ fn domain_id() -> u16 {
 /// Runs the node with `params` (`name:=value`) and returns its exit status and the
 /// last line it printed on stderr.
 fn start_with(params: &[&str]) -> (bool, String) {
+    let (success, stderr) = run(Command::new(env!("CARGO_BIN_EXE_calibrate_node")), params);
+    (
+        success,
+        stderr.lines().last().unwrap_or_default().to_owned(),
+    )
+}
+
+/// Runs `command` (the node) with `params` and returns its exit status and what it
+/// printed on stderr.
+fn run(mut command: Command, params: &[&str]) -> (bool, String) {
     let dir = tempfile::tempdir().expect("temp dir");
-    let mut command = Command::new(env!("CARGO_BIN_EXE_calibrate_node"));
     command.args([
         "--ros-args",
         "-p",
@@ -27,9 +36,10 @@ fn start_with(params: &[&str]) -> (bool, String) {
         .stdin(Stdio::null())
         .output()
         .expect("run calibrate_node");
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    let last = stderr.lines().last().unwrap_or_default().to_owned();
-    (output.status.success(), last)
+    (
+        output.status.success(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
 }
 
 fn assert_refused(params: &[&str], expected: &[&str]) {
@@ -87,4 +97,13 @@ fn other_bad_parameters_are_refused_by_name() {
         &["size:=9x6", "square:=0.025", "stereo:=true", "slop:=-0.1"],
         &["parameter slop"],
     );
+}
+
+#[test]
+fn stereocal_node_calibrate_runs_the_same_node() {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_stereocal"));
+    command.args(["node", "calibrate"]);
+    let (success, stderr) = run(command, &["size:=9x6", "square:=-1"]);
+    assert!(!success);
+    assert!(stderr.contains("Error: parameter square"), "{stderr}");
 }
