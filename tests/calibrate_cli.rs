@@ -46,6 +46,7 @@ fn args(bag: PathBuf, out: PathBuf, truth: &GroundTruth) -> CalibrateArgs {
         pattern: "chessboard".to_owned(),
         size: format!("{}x{}", truth.board.cols, truth.board.rows),
         square: truth.board.square_size.to_string(),
+        charuco: Default::default(),
         topic: None,
         left: Some("/stereo/left/image_raw".to_owned()),
         right: Some("/stereo/right/image_raw".to_owned()),

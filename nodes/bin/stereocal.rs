@@ -22,7 +22,7 @@ enum Command {
     /// Rectify every image topic of a bag that has a camera_info into <ns>/image_rect.
     Rectify(RectifyArgs),
     /// Render a synthetic scene with exact ground truth into a rosbag2 bag.
-    Synth(stereocal::cli::synth::SynthArgs),
+    Synth(stereocal::cli::synth::SynthCommand),
     /// Run a node in this process, exactly as its own executable would be run by
     /// `ros2 launch` (e.g. `stereocal node rectify --ros-args -r __ns:=/left`).
     Node {
@@ -54,7 +54,7 @@ fn main() -> anyhow::Result<()> {
         Command::Calibrate(args) => stereocal::cli::calibrate::run(&args),
         Command::Demo(args) => stereocal::cli::demo::run(&args),
         Command::Rectify(args) => stereocal::cli::rectify::run(&args),
-        Command::Synth(args) => stereocal::cli::synth::run(&args),
+        Command::Synth(args) => stereocal::cli::synth::run_command(&args),
         Command::Node {
             node: NodeCommand::Rectify { args },
         } => stereocal::rectify_node::run(args),

@@ -20,7 +20,7 @@ use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
 use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::Image as ImageMsg;
-use stereocal_vision::board::{ChessboardDetector, PatternArgs, Target, TargetDetector};
+use stereocal_vision::board::{PatternArgs, Target, TargetDetector, detector_for};
 use stereocal_vision::calib::View;
 use stereocal_vision::camera::DistortionModel;
 
@@ -42,15 +42,19 @@ pub struct CalibrateArgs {
     /// Output directory for the camera_info YAML files (and stereo.yaml).
     #[arg(long)]
     pub out: PathBuf,
-    /// Target kind, as ROS camera_calibration: chessboard.
+    /// Target kind, as ROS camera_calibration: chessboard or charuco.
     #[arg(long, default_value = "chessboard")]
     pub pattern: String,
-    /// Inner corners of the chessboard, COLSxROWS (e.g. 9x6).
+    /// Inner corners of the chessboard, or squares of the ChArUco board, COLSxROWS
+    /// (e.g. 9x6).
     #[arg(long)]
     pub size: String,
     /// Side of one square, metres.
     #[arg(long)]
     pub square: String,
+    /// The markers of a ChArUco board.
+    #[command(flatten)]
+    pub charuco: CharucoArgs,
     /// Image topic of a mono camera. Without --topic, --left and --right, a bag with
     /// one image topic is calibrated mono, one with a `left` and a `right` image topic
     /// as a stereo pair.
@@ -71,6 +75,18 @@ pub struct CalibrateArgs {
     /// Print the results as one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// The marker options of a ChArUco target, as ROS camera_calibration names them.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct CharucoArgs {
+    /// Side of one ChArUco marker, metres.
+    #[arg(long = "charuco_marker_size")]
+    pub marker_size: Option<String>,
+    /// ArUco dictionary of a ChArUco board (`4x4_50`, `DICT_5X5_100`, `aruco_orig`);
+    /// default `4x4_50`.
+    #[arg(long = "aruco_dict")]
+    pub aruco_dict: Option<String>,
 }
 
 fn parse_model(name: &str) -> Result<DistortionModel, String> {
@@ -126,15 +142,11 @@ pub fn calibrate_bag(
         pattern: Some(args.pattern.clone()),
         size: Some(args.size.clone()),
         square: Some(args.square.clone()),
-        ..PatternArgs::default()
+        marker_size: args.charuco.marker_size.clone(),
+        aruco_dict: args.charuco.aruco_dict.clone(),
     }
     .target()?;
-    let detector = match target {
-        Target::Chessboard(board) => ChessboardDetector::new(board)?,
-        Target::Charuco(_) => bail!(
-            "--pattern charuco: offline calibration detects chessboards only; use --pattern chessboard"
-        ),
-    };
+    let detector = detector_for(&target)?;
     let reader = BagReader::open(&args.bag)
         .with_context(|| format!("opening the bag {}", args.bag.display()))?;
     let cameras = choose_cameras(&reader, args)?;
@@ -145,7 +157,7 @@ pub fn calibrate_bag(
             .map(|t| t.message_count)
             .sum(),
     );
-    let frames = detect_frames(&reader, &cameras, &detector, progress)?;
+    let frames = detect_frames(&reader, &cameras, detector.as_ref(), progress)?;
     let outcome = match frames.as_slice() {
         [mono] => CalibrationOutcome {
             cameras: vec![calibrate_camera(mono, args.model)?],
@@ -247,7 +259,7 @@ struct Detected {
 fn detect_frames(
     reader: &BagReader,
     cameras: &[(String, String)],
-    detector: &ChessboardDetector,
+    detector: &(dyn TargetDetector + Sync),
     progress: &ProgressBar,
 ) -> anyhow::Result<Vec<CameraFrames>> {
     let batch_size = 2 * rayon::current_num_threads().max(1);
@@ -314,7 +326,7 @@ impl Collector<'_> {
     fn absorb(
         &mut self,
         batch: &mut Vec<Pending>,
-        detector: &ChessboardDetector,
+        detector: &(dyn TargetDetector + Sync),
         progress: &ProgressBar,
     ) {
         let target = detector.target();
@@ -358,7 +370,7 @@ impl Collector<'_> {
 /// decoded at all (no stamp to report it under), after saying so on stderr.
 fn detect_one(
     pending: &Pending,
-    detector: &ChessboardDetector,
+    detector: &(dyn TargetDetector + Sync),
     target: &Target,
     progress: &ProgressBar,
 ) -> Option<Detected> {

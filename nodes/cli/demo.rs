@@ -165,6 +165,7 @@ fn calibration_session(out: &Path) -> anyhow::Result<()> {
             pattern: "chessboard".into(),
             size: format!("{}x{}", board.cols, board.rows),
             square: board.square_size.to_string(),
+            charuco: Default::default(),
             topic: None,
             left: Some(format!("{LEFT}/image_raw")),
             right: Some(format!("{RIGHT}/image_raw")),

@@ -15,12 +15,13 @@ use stereocal_msgs::geometry_msgs::{
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_msgs::tf2_msgs::TFMessage;
+use stereocal_vision::board::Target;
 use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::rectify::{
     StereoRectification, StereoRectifyOptions, fisheye_stereo_rectify, stereo_rectify,
 };
 use stereocal_vision::synth::{
-    GroundTruth, PixelFormat, RigLayout, Scene, SceneKind, SceneSpec, StampRecord,
+    Chessboard, GroundTruth, PixelFormat, RigLayout, Scene, SceneKind, SceneSpec, StampRecord,
 };
 
 use crate::bag::{BagWriter, OfferedQos, WriterOptions};
@@ -97,6 +98,46 @@ pub struct SynthArgs {
     pub vertical: bool,
 }
 
+/// Arguments of the `stereocal synth` command: the scene, and the target it shows.
+#[derive(clap::Args, Debug)]
+pub struct SynthCommand {
+    /// The scene.
+    #[command(flatten)]
+    pub scene: SynthArgs,
+    /// The target.
+    #[command(flatten)]
+    pub target: SynthTargetArgs,
+}
+
+/// The target a synthetic scene shows.
+#[derive(clap::Args, Debug, Default)]
+pub struct SynthTargetArgs {
+    /// Target definition (`config/boards/*.yaml`: a chessboard or a ChArUco board),
+    /// printed with a white margin of one square; default: a 9x6 chessboard of 40 mm
+    /// squares (30 mm for hand-eye).
+    #[arg(long)]
+    pub board: Option<PathBuf>,
+}
+
+impl SynthTargetArgs {
+    /// The target read from `--board`, or `None` for the scene's default.
+    pub fn target(&self) -> anyhow::Result<Option<Target>> {
+        self.board
+            .as_deref()
+            .map(|path| {
+                Target::from_yaml_file(path)
+                    .with_context(|| format!("cannot use the board {}", path.display()))
+            })
+            .transpose()
+    }
+}
+
+/// Runs `stereocal synth`: [`run`] with the target of `--board`.
+pub fn run_command(command: &SynthCommand) -> anyhow::Result<()> {
+    let target = command.target.target()?;
+    run_with_target(&command.scene, target.as_ref())
+}
+
 impl SynthArgs {
     /// The scene these arguments describe.
     pub fn spec(&self) -> SceneSpec {
@@ -135,10 +176,20 @@ impl SynthArgs {
 /// Renders the scene into `<out>/bag` and writes `<out>/ground_truth.json`; stereo rigs
 /// also get `<out>/left.yaml` and `<out>/right.yaml` with their true rectification.
 pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
+    run_with_target(args, None)
+}
+
+/// [`run`] with the scene showing `target` (`None`: the scene's default chessboard).
+/// Ground truth lists every corner of the target; a corner is `visible` when it
+/// projects into the image.
+pub fn run_with_target(args: &SynthArgs, target: Option<&Target>) -> anyhow::Result<()> {
     if args.frames == Some(0) {
         bail!("--frames must be at least 1");
     }
-    let spec = args.spec();
+    let mut spec = args.spec();
+    if let Some(target) = target {
+        spec.board = Chessboard::from_target(target).context("cannot render the target")?;
+    }
     let scene = Scene::generate(&spec).context("cannot make the scene")?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;

@@ -6,7 +6,7 @@ use nalgebra::{Point2, Point3};
 use serde::{Deserialize, Serialize};
 
 use super::SynthError;
-use crate::board::ArucoDictionary;
+use crate::board::{ArucoDictionary, Target};
 
 /// A printed chessboard with a white margin around its squares.
 ///
@@ -200,6 +200,23 @@ impl Chessboard {
             ..Self::new(cols, rows, square_size, margin)?
         };
         board.checked()
+    }
+
+    /// The board of a calibration target, with a white margin of one square: a
+    /// chessboard, or a ChArUco board with its markers.
+    pub fn from_target(target: &Target) -> Result<Self, SynthError> {
+        match target {
+            Target::Chessboard(board) => {
+                Self::new(board.cols, board.rows, board.square_size, board.square_size)
+            }
+            Target::Charuco(board) => Self::charuco(
+                board.cols(),
+                board.rows(),
+                board.square_size,
+                board.square_size,
+                CharucoMarkers::new(board.marker_size, board.dictionary)?,
+            ),
+        }
     }
 
     /// The board after checking its dimensions and markers (a board built field by
