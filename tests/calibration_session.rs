@@ -12,12 +12,12 @@ use stereocal::calibration_session::{
     store_path,
 };
 use stereocal_msgs::builtin_interfaces::Time;
-use stereocal_vision::board::{Chessboard, Target};
+use stereocal_vision::board::{ArucoDictionary, Charuco, Chessboard, Target};
 use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::image::Image;
 use stereocal_vision::synth::{
-    Background, FrameKind, GroundTruth, Photometry, PixelFormat, Renderer, Scene, SceneKind,
-    SceneSpec, Shot,
+    self, Background, CharucoMarkers, FrameKind, GroundTruth, Photometry, PixelFormat, Renderer,
+    Scene, SceneKind, SceneSpec, Shot,
 };
 
 /// A rendered stereo calibration session: ground truth and each frame's images.
@@ -433,4 +433,62 @@ fn offers_of_the_wrong_shape_are_errors_and_progress_reads() {
     let json = progress.to_json();
     assert_eq!(json["samples"], 0);
     assert_eq!(json["cameras"][1]["name"], "right");
+}
+
+#[test]
+fn a_charuco_session_keeps_partly_visible_boards_and_refuses_blurred_ones() {
+    let target = Charuco {
+        squares_x: 7,
+        squares_y: 5,
+        square_size: 0.04,
+        marker_size: 0.03,
+        dictionary: ArucoDictionary::Dict5x5_100,
+    };
+    let markers = CharucoMarkers::new(target.marker_size, target.dictionary).unwrap();
+    let mut spec = SceneSpec::new(SceneKind::Calibration, 5);
+    spec.board = synth::Chessboard::charuco(6, 4, 0.04, 0.04, markers).unwrap();
+    spec.frames = 12;
+    spec.bad_fraction = 0.5;
+    let scene = Scene::generate(&spec).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let config = SessionConfig::new(
+        Target::Charuco(target.clone()),
+        vec!["left".to_owned()],
+        DistortionModel::PlumbBob,
+    );
+    let mut calibration = CalibrationSession::open(config.clone(), dir.path()).unwrap();
+    let mut partial_kept = 0;
+    for (index, frame) in scene.truth().frames.iter().enumerate() {
+        let images = scene.render_frame(index).unwrap();
+        let offer = calibration
+            .offer(stamp(scene.truth(), index), &[&images[0]])
+            .unwrap();
+        // Partly visible boards are usable; blurred and moving ones are not.
+        let usable = matches!(frame.kind, FrameKind::Clean | FrameKind::Partial);
+        assert_eq!(
+            usable,
+            !matches!(offer.verdict, Verdict::Refused(_)),
+            "{:?} frame {index} judged {:?}",
+            frame.kind,
+            offer.verdict
+        );
+        if let (Verdict::Added, Some(found)) = (&offer.verdict, &offer.detections[0])
+            && found.ids.len() < 24
+        {
+            partial_kept += 1;
+        }
+    }
+    assert!(
+        calibration.sample_count() >= 4,
+        "{}",
+        calibration.sample_count()
+    );
+    assert!(partial_kept >= 1, "no partly visible board kept");
+    let samples: Vec<_> = calibration.samples().cloned().collect();
+    let progress = calibration.progress();
+    assert!(progress.cameras[0].size > 0.0);
+    drop(calibration);
+    let reopened = CalibrationSession::open(config, dir.path()).unwrap();
+    assert_eq!(reopened.samples().cloned().collect::<Vec<_>>(), samples);
+    assert_eq!(reopened.progress(), progress);
 }

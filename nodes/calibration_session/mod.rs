@@ -1,8 +1,9 @@
 //! A live calibration session: frames are offered one at a time (mono, or a
 //! synchronized stereo pair); each is judged as ROS camera_calibration judges it (the
-//! board found in every camera, not moving, sharp, and adding coverage), the kept
-//! samples are stored on disk after every change, and the session calibrates from them
-//! on request. `calibrate_node` drives it; tests drive it directly.
+//! board found in every camera, whole for a chessboard or in part for a ChArUco board,
+//! not moving, sharp, and adding coverage), the kept samples are stored on disk after
+//! every change, and the session calibrates from them on request. `calibrate_node`
+//! drives it; tests drive it directly.
 
 mod annotate;
 mod coverage;
@@ -15,9 +16,7 @@ use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use stereocal_msgs::builtin_interfaces::Time;
-use stereocal_vision::board::{
-    BoardError, ChessboardDetector, Detection, Gray, Target, TargetDetector,
-};
+use stereocal_vision::board::{BoardError, Detection, Gray, Target, TargetDetector, detector_for};
 use stereocal_vision::calib::View;
 use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::image::Image;
@@ -37,7 +36,7 @@ pub use sharpness::{EdgeBlur, edge_blur};
 pub use store::{STORE_FILE, Sample, store_path};
 
 /// Default [`SessionConfig::max_blur`]: edges wider than this (10-90 %, pixels) are
-/// refused. The 26 images of OpenCV's stereo sample measure 2.0-3.0 px, synth's sharp
+/// refused. The 26 images of OpenCV's stereo sample measure 2.25-3.0 px, synth's sharp
 /// frames 1.5-2.25 px; synth's defocused frames that are still detected measure 11 px
 /// and more (a defocus of sigma 3 px, 7.8 px), a board sliding 15 mm during the exposure
 /// 8.5 px across its motion.
@@ -245,16 +244,27 @@ struct Kept {
 
 /// A calibration session: the kept samples of one target seen by one camera or a
 /// stereo pair, stored in a folder.
-#[derive(Debug)]
 pub struct CalibrationSession {
     config: SessionConfig,
     cols: usize,
     rows: usize,
-    detector: ChessboardDetector,
+    /// Fraction of a white square's side, from each edge, free of markers.
+    clear: f64,
+    detector: Box<dyn TargetDetector + Send + Sync>,
     store_path: PathBuf,
     image_sizes: Option<Vec<(usize, usize)>>,
     kept: Vec<Kept>,
     previous: Option<(Time, Vec<Option<Detection>>)>,
+}
+
+impl std::fmt::Debug for CalibrationSession {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CalibrationSession")
+            .field("config", &self.config)
+            .field("store_path", &self.store_path)
+            .field("samples", &self.kept.len())
+            .finish_non_exhaustive()
+    }
 }
 
 impl CalibrationSession {
@@ -269,17 +279,21 @@ impl CalibrationSession {
                 config.cameras
             )));
         }
-        let Target::Chessboard(board) = config.target else {
-            return Err(SessionError::Config(
-                "only chessboard targets can be detected; use --pattern chessboard".to_owned(),
-            ));
+        let (cols, rows, clear) = match &config.target {
+            Target::Chessboard(board) => (board.cols, board.rows, 0.5),
+            Target::Charuco(board) => (
+                board.cols(),
+                board.rows(),
+                (board.square_size - board.marker_size) / (2.0 * board.square_size),
+            ),
         };
         let detector =
-            ChessboardDetector::new(board).map_err(|e| SessionError::Config(e.to_string()))?;
+            detector_for(&config.target).map_err(|e| SessionError::Config(e.to_string()))?;
         let store_path = store_path(store_dir);
         let mut session = Self {
-            cols: board.cols,
-            rows: board.rows,
+            cols,
+            rows,
+            clear,
             detector,
             store_path,
             image_sizes: None,
@@ -378,10 +392,12 @@ impl CalibrationSession {
             .map(|(name, _)| name.as_str())
             .collect();
         if !missing.is_empty() {
+            let board = match &self.config.target {
+                Target::Chessboard(b) => format!("whole {}x{} board", b.cols, b.rows),
+                Target::Charuco(b) => format!("{}x{} ChArUco board", b.squares_x, b.squares_y),
+            };
             return Ok(Verdict::Refused(format!(
-                "no whole {}x{} board found in {}: keep the whole board in view{}, well lit and in focus, and hold it still",
-                self.cols,
-                self.rows,
+                "no {board} found in {}: keep the whole board in view{}, well lit and in focus, and hold it still",
                 missing.join(" and "),
                 if self.config.cameras.len() > 1 {
                     " of both cameras"
@@ -414,7 +430,8 @@ impl CalibrationSession {
         }
         if self.config.max_blur > 0.0 {
             for ((gray, detection), camera) in grays.iter().zip(&found).zip(&self.config.cameras) {
-                let Some(blur) = edge_blur(gray, detection, self.cols, self.rows) else {
+                let Some(blur) = edge_blur(gray, detection, self.cols, self.rows, self.clear)
+                else {
                     continue;
                 };
                 if blur.width() > self.config.max_blur {

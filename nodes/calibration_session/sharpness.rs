@@ -3,11 +3,12 @@
 //! widens only the edges across the motion) shows apart from defocus (which widens all).
 //!
 //! Each edge between two adjacent inner corners separates a black and a white square.
-//! Across it, from the centre line of one square to the centre line of the other, the
-//! grey profile (averaged over five lines across the middle of the edge) rises from one
-//! level to the other; its width is the length over which it lies between 10 % and
-//! 90 % of that rise. A sharp edge is one to two pixels wide (the lens and the
-//! sensor's pixels); a defocused or moving board widens it to many pixels.
+//! Across it, from the centre line of the black square to the white square's clear
+//! part (its centre line on a chessboard; short of the marker on a ChArUco board), the
+//! grey profile (averaged over five lines across the middle of the edge) rises from the
+//! black level to the white one; its width is the length over which it lies between
+//! 10 % and 90 % of that rise. A sharp edge is one to three pixels wide (the lens and
+//! the sensor's pixels); a defocused or moving board widens it to many pixels.
 
 use nalgebra::{Point2, Vector2};
 use stereocal_vision::board::{Detection, Gray};
@@ -52,10 +53,18 @@ impl EdgeBlur {
     }
 }
 
-/// The edge widths of `detection`, a `cols x rows` chessboard found in `gray`. `None`
-/// when no edge of one family could be measured (squares too small, edges off the
-/// image, or no contrast).
-pub fn edge_blur(gray: &Gray, detection: &Detection, cols: usize, rows: usize) -> Option<EdgeBlur> {
+/// The edge widths of `detection`, a board of `cols x rows` inner corners found in
+/// `gray`, whose white squares are plain for a `clear` fraction of their side from each
+/// edge (0.5 for a chessboard; `(square - marker) / (2 square)` for a ChArUco board).
+/// `None` when no edge of one family could be measured (squares too small, edges off
+/// the image, or no contrast).
+pub fn edge_blur(
+    gray: &Gray,
+    detection: &Detection,
+    cols: usize,
+    rows: usize,
+    clear: f64,
+) -> Option<EdgeBlur> {
     let mut grid: Vec<Option<Point2<f64>>> = vec![None; cols * rows];
     for (&id, corner) in detection.ids.iter().zip(&detection.corners) {
         if let Some(slot) = grid.get_mut(id) {
@@ -75,7 +84,8 @@ pub fn edge_blur(gray: &Gray, detection: &Detection, cols: usize, rows: usize) -
                 let across = column_step(&at, i, j, rows)
                     .zip(column_step(&at, i + 1, j, rows))
                     .map(|(a, b)| (a + b) / 2.0);
-                if let Some(width) = across.and_then(|v| edge_width(gray, &here, &next, &v)) {
+                if let Some(width) = across.and_then(|v| edge_width(gray, &here, &next, &v, clear))
+                {
                     row_widths.push(width);
                 }
             }
@@ -85,7 +95,8 @@ pub fn edge_blur(gray: &Gray, detection: &Detection, cols: usize, rows: usize) -
                 let across = row_step(&at, i, j, cols)
                     .zip(row_step(&at, i, j + 1, cols))
                     .map(|(a, b)| (a + b) / 2.0);
-                if let Some(width) = across.and_then(|v| edge_width(gray, &here, &next, &v)) {
+                if let Some(width) = across.and_then(|v| edge_width(gray, &here, &next, &v, clear))
+                {
                     column_widths.push(width);
                 }
             }
@@ -127,28 +138,46 @@ fn row_step(
 }
 
 /// The 10-90 % width of the edge from corner `a` to corner `b`, whose two squares
-/// extend a step `across` (a neighbouring corner's offset) on either side.
-fn edge_width(gray: &Gray, a: &Point2<f64>, b: &Point2<f64>, across: &Vector2<f64>) -> Option<f64> {
+/// extend a step `across` (a neighbouring corner's offset) on either side, the white
+/// one plain for a `clear` fraction of its side.
+fn edge_width(
+    gray: &Gray,
+    a: &Point2<f64>,
+    b: &Point2<f64>,
+    across: &Vector2<f64>,
+    clear: f64,
+) -> Option<f64> {
     let along = b - a;
     let normal = Vector2::new(-along.y, along.x).try_normalize(1e-9)?;
     // Distance from the edge to the centre line of each square.
     let reach = across.dot(&normal).abs() / 2.0;
-    if reach < MIN_REACH {
+    // How far the white square is plain: to its centre line on a chessboard, to just
+    // short of the marker on a ChArUco board.
+    let white_reach = reach.min(0.9 * clear * 2.0 * reach);
+    if white_reach < MIN_REACH {
         return None;
     }
-    let steps = (reach / STEP).floor() as i64;
-    let mut profile = Vec::with_capacity(2 * steps as usize + 1);
-    for k in -steps..=steps {
-        let t = k as f64 * STEP;
+    let level = |t: f64| -> Option<f64> {
         let mut sum = 0.0;
         for s in ALONG {
             let p = a + along * s + normal * t;
             sum += gray.sample(p.x, p.y)?;
         }
-        profile.push(sum / ALONG.len() as f64);
-    }
-    let (first, last) = (*profile.first()?, *profile.last()?);
-    let (low, high) = (first.min(last), first.max(last));
+        Some(sum / ALONG.len() as f64)
+    };
+    // Point the normal into the white square.
+    let normal_sign = if level(white_reach)? >= level(-white_reach)? {
+        1.0
+    } else {
+        -1.0
+    };
+    let from_black = (reach / STEP).floor() as i64;
+    let to_white = (white_reach / STEP).floor() as i64;
+    let profile = (-from_black..=to_white)
+        .map(|k| level(normal_sign * k as f64 * STEP))
+        .collect::<Option<Vec<f64>>>()?;
+    let low = *profile.first()?;
+    let high = profile.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let rise = high - low;
     if rise < MIN_CONTRAST {
         return None;
@@ -258,7 +287,7 @@ mod tests {
         // A Gaussian-blurred step rises from 10 % to 90 % over 2.563 sigma.
         for sigma in [1.0, 3.0, 6.0] {
             let (gray, detection) = board(40.0, 60.0, sigma, sigma);
-            let blur = edge_blur(&gray, &detection, 5, 4).unwrap();
+            let blur = edge_blur(&gray, &detection, 5, 4, 0.5).unwrap();
             let expected = 2.563 * sigma;
             for width in [blur.row_edges, blur.column_edges] {
                 assert!(
@@ -275,7 +304,7 @@ mod tests {
         // Blur along x widens the vertical edges: those between corners adjacent along
         // a column.
         let (gray, detection) = board(40.0, 60.0, 6.0, 0.8);
-        let blur = edge_blur(&gray, &detection, 5, 4).unwrap();
+        let blur = edge_blur(&gray, &detection, 5, 4, 0.5).unwrap();
         assert!(blur.column_edges > 13.0 && blur.row_edges < 3.5, "{blur:?}");
         assert!(blur.is_directional(2.0));
         assert_eq!(blur.width(), blur.column_edges);
@@ -288,11 +317,11 @@ mod tests {
             data: vec![128; gray.data.len()],
             ..gray
         };
-        assert_eq!(edge_blur(&flat, &detection, 5, 4), None);
+        assert_eq!(edge_blur(&flat, &detection, 5, 4, 0.5), None);
         let (gray, mut detection) = board(40.0, 60.0, 1.0, 1.0);
         for corner in &mut detection.corners {
             corner.x += 1000.0;
         }
-        assert_eq!(edge_blur(&gray, &detection, 5, 4), None);
+        assert_eq!(edge_blur(&gray, &detection, 5, 4, 0.5), None);
     }
 }
