@@ -86,6 +86,9 @@ pub enum ReportError {
     /// The rectified picture could not be encoded.
     #[error("encoding the rectified picture as PNG: {0}")]
     Png(#[from] image::ImageError),
+    /// The rectified picture of mono images could not be encoded.
+    #[error("encoding the rectified picture as a palette PNG: {0}")]
+    PalettePng(#[from] png::EncodingError),
     /// The bag could not be read for the sample images.
     #[error("reading the sample images from the bag: {0}")]
     Bag(#[from] BagError),

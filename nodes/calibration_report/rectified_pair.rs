@@ -25,62 +25,97 @@ pub const EPIPOLAR_LINES: usize = 16;
 pub const EPIPOLAR_LINE_HALF_WIDTH: usize = 1;
 /// The epipolar lines' colour, pure green: never a grey pixel of a mono image.
 const LINE: [u8; 3] = [0, 255, 0];
+/// The palette index of the lines in a picture of mono images; indices below it are
+/// grey levels.
+const LINE_INDEX: u8 = 255;
 
-/// An 8-bit RGB picture being composed.
+/// An 8-bit picture being composed: palette indices (grey levels and [`LINE_INDEX`])
+/// when every image is mono, RGB otherwise.
 struct Picture {
     width: usize,
     height: usize,
-    rgb: Vec<u8>,
+    /// 1 (palette indices) or 3 (RGB).
+    channels: usize,
+    pixels: Vec<u8>,
 }
 
 impl Picture {
-    fn new(width: usize, height: usize) -> Self {
+    fn new(width: usize, height: usize, channels: usize) -> Self {
         Self {
             width,
             height,
-            rgb: vec![0; width * height * 3],
+            channels,
+            pixels: vec![0; width * height * channels],
         }
     }
 
-    /// Copies `image` (8-bit RGB, `width` x `height`) with its top-left at `(x, y)`.
-    fn paste(&mut self, rgb: &[u8], width: usize, x: usize, y: usize) {
-        for (r, row) in rgb.chunks_exact(width * 3).enumerate() {
-            let start = ((y + r) * self.width + x) * 3;
-            self.rgb[start..start + row.len()].copy_from_slice(row);
+    fn line(&self) -> &'static [u8] {
+        if self.channels == 1 {
+            &[LINE_INDEX]
+        } else {
+            &LINE
+        }
+    }
+
+    /// Copies `pixels` (this picture's channels, `width` wide) with its top-left at
+    /// `(x, y)`.
+    fn paste(&mut self, pixels: &[u8], width: usize, x: usize, y: usize) {
+        let n = self.channels;
+        for (r, row) in pixels.chunks_exact(width * n).enumerate() {
+            let start = ((y + r) * self.width + x) * n;
+            self.pixels[start..start + row.len()].copy_from_slice(row);
         }
     }
 
     /// Draws a horizontal line centred on row `y`.
     fn row(&mut self, y: usize) {
+        let (n, line) = (self.channels, self.line());
         let rows = y.saturating_sub(EPIPOLAR_LINE_HALF_WIDTH)
             ..(y + EPIPOLAR_LINE_HALF_WIDTH + 1).min(self.height);
-        let span = rows.start * self.width * 3..rows.end * self.width * 3;
-        for pixel in self.rgb[span].chunks_exact_mut(3) {
-            pixel.copy_from_slice(&LINE);
+        let span = rows.start * self.width * n..rows.end * self.width * n;
+        for pixel in self.pixels[span].chunks_exact_mut(n) {
+            pixel.copy_from_slice(line);
         }
     }
 
     /// Draws a vertical line centred on column `x`.
     fn column(&mut self, x: usize) {
+        let (n, line) = (self.channels, self.line());
         let columns = x.saturating_sub(EPIPOLAR_LINE_HALF_WIDTH)
             ..(x + EPIPOLAR_LINE_HALF_WIDTH + 1).min(self.width);
-        for row in self.rgb.chunks_exact_mut(self.width * 3) {
-            for pixel in row[columns.start * 3..columns.end * 3].chunks_exact_mut(3) {
-                pixel.copy_from_slice(&LINE);
+        for row in self.pixels.chunks_exact_mut(self.width * n) {
+            for pixel in row[columns.start * n..columns.end * n].chunks_exact_mut(n) {
+                pixel.copy_from_slice(line);
             }
         }
     }
 
+    /// The picture as PNG: a palette image for mono sources (a third of RGB's bytes to
+    /// filter and compress, which `image` does not write), RGB otherwise.
     fn png(&self) -> Result<Vec<u8>, ReportError> {
-        let mut png = Vec::new();
-        PngEncoder::new_with_quality(&mut png, CompressionType::Fast, FilterType::Sub)
-            .write_image(
-                &self.rgb,
-                self.width as u32,
-                self.height as u32,
-                image::ExtendedColorType::Rgb8,
-            )?;
-        Ok(png)
+        let mut out = Vec::new();
+        if self.channels == 1 {
+            let mut palette: Vec<u8> = (0..LINE_INDEX).flat_map(|g| [g, g, g]).collect();
+            palette.extend_from_slice(&LINE);
+            let mut encoder = png::Encoder::new(&mut out, self.width as u32, self.height as u32);
+            encoder.set_color(png::ColorType::Indexed);
+            encoder.set_depth(png::BitDepth::Eight);
+            encoder.set_palette(palette);
+            encoder.set_compression(png::Compression::Fast);
+            encoder.set_filter(png::Filter::Sub);
+            let mut writer = encoder.write_header()?;
+            writer.write_image_data(&self.pixels)?;
+            writer.finish()?;
+        } else {
+            PngEncoder::new_with_quality(&mut out, CompressionType::Fast, FilterType::Sub)
+                .write_image(
+                    &self.pixels,
+                    self.width as u32,
+                    self.height as u32,
+                    image::ExtendedColorType::Rgb8,
+                )?;
+        }
+        Ok(out)
     }
 }
 
@@ -110,6 +145,15 @@ pub(crate) fn figure(
         )));
     }
     let stamp = stamp_text(&sample.stamp);
+    let channels = if sample
+        .images
+        .iter()
+        .all(|s| matches!(s.encoding, Encoding::Mono8 | Encoding::Mono16))
+    {
+        1
+    } else {
+        3
+    };
     let (picture, lines, caption) = match (
         &outcome.stereo,
         outcome.cameras.as_slice(),
@@ -120,28 +164,30 @@ pub(crate) fn figure(
             let (width, height) = (r.image_size.0 as usize, r.image_size.1 as usize);
             let (left_rgb, right_rgb) = rayon::join(
                 || {
-                    rectified_rgb(
+                    rectified_pixels(
                         left,
                         left_image,
                         r.left_rectified_from_original.matrix(),
                         &r.left_projection,
                         (width, height),
+                        channels,
                     )
                 },
                 || {
-                    rectified_rgb(
+                    rectified_pixels(
                         right,
                         right_image,
                         r.right_rectified_from_original.matrix(),
                         &r.right_projection,
                         (width, height),
+                        channels,
                     )
                 },
             );
             let (left_rgb, right_rgb) = (left_rgb?, right_rgb?);
             match r.layout {
                 StereoLayout::Horizontal => {
-                    let mut picture = Picture::new(2 * width, height);
+                    let mut picture = Picture::new(2 * width, height, channels);
                     picture.paste(&left_rgb, width, 0, 0);
                     picture.paste(&right_rgb, width, width, 0);
                     let rows = line_positions(height);
@@ -156,7 +202,7 @@ pub(crate) fn figure(
                     )
                 }
                 StereoLayout::Vertical => {
-                    let mut picture = Picture::new(width, 2 * height);
+                    let mut picture = Picture::new(width, 2 * height, channels);
                     picture.paste(&left_rgb, width, 0, 0);
                     picture.paste(&right_rgb, width, 0, height);
                     let columns = line_positions(width);
@@ -176,15 +222,16 @@ pub(crate) fn figure(
             let model = &camera.calibration.camera;
             let (width, height) = (model.width as usize, model.height as usize);
             let projection = model.intrinsics.matrix().insert_column(3, 0.0);
-            let rgb = rectified_rgb(
+            let pixels = rectified_pixels(
                 camera,
                 image,
                 &Matrix3::identity(),
                 &projection,
                 (width, height),
+                channels,
             )?;
-            let mut picture = Picture::new(width, height);
-            picture.paste(&rgb, width, 0, 0);
+            let mut picture = Picture::new(width, height, channels);
+            picture.paste(&pixels, width, 0, 0);
             (
                 picture,
                 String::new(),
@@ -219,14 +266,16 @@ fn join(values: &[usize]) -> String {
         .join(" ")
 }
 
-/// `sample` remapped through the map of `camera` with `rectified_from_original` (camera_info
-/// `R`) and `projection` (`P`) at `size`, as 8-bit RGB.
-fn rectified_rgb(
+/// `sample` remapped through the map of `camera` with `rectified_from_original`
+/// (camera_info `R`) and `projection` (`P`) at `size`, as a picture's pixels: grey
+/// palette indices (`channels` 1, mono images only) or 8-bit RGB (`channels` 3).
+fn rectified_pixels(
     camera: &CameraResult,
     sample: &SampleImage,
     rectified_from_original: &Matrix3<f64>,
     projection: &Matrix3x4<f64>,
     size: (usize, usize),
+    channels: usize,
 ) -> Result<Vec<u8>, ReportError> {
     let model = &camera.calibration.camera;
     let image = &sample.image;
@@ -247,7 +296,29 @@ fn rectified_rgb(
             camera: camera.name.clone(),
             source,
         })?;
-    Ok(rgb(&rectified, sample.encoding))
+    Ok(if channels == 1 {
+        grey_indices(&rectified)
+    } else {
+        rgb(&rectified, sample.encoding)
+    })
+}
+
+/// A mono image as grey palette indices: 8-bit levels (16-bit samples keep their high
+/// byte) below [`LINE_INDEX`], white becoming the next lighter grey.
+fn grey_indices(image: &Image) -> Vec<u8> {
+    let channels = image.channels.max(1);
+    match &image.samples {
+        Samples::U8(v) => v
+            .iter()
+            .step_by(channels)
+            .map(|&g| g.min(LINE_INDEX - 1))
+            .collect(),
+        Samples::U16(v) => v
+            .iter()
+            .step_by(channels)
+            .map(|&g| ((g >> 8) as u8).min(LINE_INDEX - 1))
+            .collect(),
+    }
 }
 
 /// An image of `encoding` as 8-bit RGB (16-bit samples keep their high byte, alpha is
@@ -293,6 +364,14 @@ mod tests {
         let bgra = image(4, Samples::U8(vec![1, 2, 3, 9, 4, 5, 6, 9]));
         assert_eq!(rgb(&bgra, Encoding::Bgra8), [3, 2, 1, 6, 5, 4]);
         assert_eq!(rgb(&bgra, Encoding::Rgba8), [1, 2, 3, 4, 5, 6]);
+    }
+
+    #[test]
+    fn mono_images_become_grey_indices_below_the_line() {
+        let mono8 = Image::new(3, 1, 1, Samples::U8(vec![0, 254, 255])).unwrap();
+        assert_eq!(grey_indices(&mono8), [0, 254, 254]);
+        let mono16 = Image::new(2, 1, 1, Samples::U16(vec![0x1234, 0xffff])).unwrap();
+        assert_eq!(grey_indices(&mono16), [0x12, 254]);
     }
 
     #[test]
