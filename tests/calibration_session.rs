@@ -492,3 +492,35 @@ fn a_charuco_session_keeps_partly_visible_boards_and_refuses_blurred_ones() {
     assert_eq!(reopened.samples().cloned().collect::<Vec<_>>(), samples);
     assert_eq!(reopened.progress(), progress);
 }
+
+#[test]
+fn a_mono_session_calibrates_one_camera() {
+    let s = session();
+    let dir = tempfile::tempdir().unwrap();
+    let mut config = stereo_config(&s.truth);
+    config.cameras = vec!["left".to_owned()];
+    let mut calibration = CalibrationSession::open(config, dir.path()).unwrap();
+    for (k, frame) in s.frames.iter().enumerate() {
+        calibration.offer(stamp(&s.truth, k), &[&frame[0]]).unwrap();
+    }
+    assert_eq!(calibration.progress().cameras.len(), 1);
+    let outcome = calibration.calibrate().unwrap();
+    assert!(outcome.stereo.is_none());
+    let [camera] = outcome.cameras.as_slice() else {
+        panic!("{} cameras calibrated", outcome.cameras.len());
+    };
+    assert_eq!(camera.name, "left");
+    assert_eq!(camera.used.len(), calibration.sample_count());
+    let expected = s.truth.cameras[0].camera_model().unwrap().intrinsics;
+    let got = camera.calibration.camera.intrinsics;
+    for (got, expected) in [
+        (got.fx, expected.fx),
+        (got.cx, expected.cx),
+        (got.cy, expected.cy),
+    ] {
+        assert!(
+            (got - expected).abs() < 0.2,
+            "{got:.4} against {expected:.4}"
+        );
+    }
+}

@@ -643,3 +643,114 @@ fn sizes_text(sizes: &[(usize, usize)]) -> String {
         .collect::<Vec<_>>()
         .join(" and ")
 }
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::Point2;
+    use stereocal_vision::board::Chessboard;
+
+    use super::*;
+
+    /// A 3x3 board of `side` px squares, its first corner at `(x, y)`, rows sheared
+    /// right by `shear` px each.
+    fn board(x: f64, y: f64, side: f64, shear: f64) -> Detection {
+        Detection {
+            corners: (0..9)
+                .map(|k| {
+                    let (i, j) = ((k % 3) as f64, (k / 3) as f64);
+                    Point2::new(x + side * i + shear * j, y + side * j)
+                })
+                .collect(),
+            ids: (0..9).collect(),
+            square_px: side,
+        }
+    }
+
+    fn open_with(samples: Vec<Detection>) -> CalibrationSession {
+        let dir = tempfile::tempdir().unwrap();
+        let target = Target::Chessboard(Chessboard::new(3, 3, 0.05).unwrap());
+        let config = SessionConfig::new(
+            target.clone(),
+            vec!["camera".to_owned()],
+            DistortionModel::PlumbBob,
+        );
+        store::save(
+            &store_path(dir.path()),
+            &store::StoredSession {
+                target,
+                cameras: config.cameras.clone(),
+                image_sizes: Some(vec![(640, 480)]),
+                samples: samples
+                    .into_iter()
+                    .enumerate()
+                    .map(|(k, d)| Sample {
+                        stamp: Time {
+                            sec: k as i32,
+                            nanosec: 0,
+                        },
+                        detections: vec![d],
+                    })
+                    .collect(),
+            },
+        )
+        .unwrap();
+        CalibrationSession::open(config, dir.path()).unwrap()
+    }
+
+    #[test]
+    fn ready_when_every_bar_is_full_or_with_enough_samples() {
+        // Small boards in opposite corners span X and Y; a large one fills size; a
+        // sheared one fills skew.
+        let covering = vec![
+            board(5.0, 5.0, 20.0, 0.0),
+            board(590.0, 430.0, 20.0, 0.0),
+            board(100.0, 60.0, 150.0, 0.0),
+            board(200.0, 200.0, 40.0, 60.0),
+        ];
+        let session = open_with(covering.clone());
+        let progress = session.progress();
+        let c = &progress.cameras[0];
+        assert_eq!([c.x, c.y, c.size, c.skew], [1.0; 4], "{progress:?}");
+        assert!(progress.ready);
+        assert!(progress.status_line().ends_with("ready to calibrate"));
+
+        let session = open_with(covering[..3].to_vec());
+        let progress = session.progress();
+        assert!(
+            progress.cameras[0].skew < 1.0 && !progress.ready,
+            "{progress:?}"
+        );
+
+        // Many samples suffice whatever the coverage.
+        let same: Vec<Detection> = (0..ENOUGH_SAMPLES)
+            .map(|k| board(300.0 + k as f64 * 0.01, 200.0, 30.0, 0.0))
+            .collect();
+        let progress = open_with(same[..ENOUGH_SAMPLES - 1].to_vec()).progress();
+        assert!(!progress.ready);
+        let progress = open_with(same).progress();
+        assert!(
+            progress.ready && progress.cameras[0].x < 0.01,
+            "{progress:?}"
+        );
+    }
+
+    #[test]
+    fn configurations_that_cannot_work_are_refused() {
+        let dir = tempfile::tempdir().unwrap();
+        let target = Target::Chessboard(Chessboard::new(3, 3, 0.05).unwrap());
+        for cameras in [vec![], vec!["a".to_owned(), "b".to_owned(), "c".to_owned()]] {
+            let config = SessionConfig::new(target.clone(), cameras, DistortionModel::PlumbBob);
+            assert!(matches!(
+                CalibrationSession::open(config, dir.path()),
+                Err(SessionError::Config(_))
+            ));
+        }
+        let config =
+            SessionConfig::new(target, vec!["camera".to_owned()], DistortionModel::PlumbBob);
+        let session = CalibrationSession::open(config, dir.path()).unwrap();
+        assert!(matches!(
+            session.calibrate(),
+            Err(CalibrationStageError::NoBoardFound { frames: 0, .. })
+        ));
+    }
+}
