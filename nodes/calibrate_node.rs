@@ -168,14 +168,14 @@ fn declare(builder: NodeBuilder) -> NodeBuilder {
         string("camera_info_url", "", "mono: where ~/commit writes camera_info; empty: camera_info_manager's default"),
         string("left_camera_info_url", "", "stereo: the left camera's camera_info URL"),
         string("right_camera_info_url", "", "stereo: the right camera's camera_info URL"),
+        ParamSpec::new(
+            "queue_size",
+            ParameterValue::Integer(5),
+            "frames kept per topic while waiting for pairing",
+        )
+        .integer_range(1..=1000),
     ]
     .into_iter()
-    .chain([ParamSpec::new(
-        "queue_size",
-        ParameterValue::Integer(5),
-        "frames kept per topic while waiting for pairing",
-    )
-    .integer_range(1..=1000)])
     .fold(builder, NodeBuilder::param)
 }
 
@@ -346,6 +346,24 @@ struct Counters {
 }
 
 type Trigger = ServiceServer<TriggerRequest, TriggerResponse>;
+
+/// The node's services.
+#[derive(Clone, Copy)]
+enum Service {
+    Calibrate,
+    Commit,
+    Reset,
+}
+
+impl Service {
+    fn name(self) -> &'static str {
+        match self {
+            Service::Calibrate => "~/calibrate",
+            Service::Commit => "~/commit",
+            Service::Reset => "~/reset",
+        }
+    }
+}
 type SetCameraInfoClient = ServiceClient<SetCameraInfoRequest, SetCameraInfoResponse>;
 
 /// The worker's side of the node: the session and everything it answers with.
@@ -564,49 +582,43 @@ impl Worker {
         }
     }
 
+    fn server(&self, service: Service) -> &Trigger {
+        match service {
+            Service::Calibrate => &self.calibrate,
+            Service::Commit => &self.commit,
+            Service::Reset => &self.reset,
+        }
+    }
+
     /// Answers the service requests that have arrived.
     fn serve(&mut self) {
         let mut answered = false;
-        for which in 0..3 {
+        for service in [Service::Calibrate, Service::Commit, Service::Reset] {
             loop {
-                let server = match which {
-                    0 => &self.calibrate,
-                    1 => &self.commit,
-                    _ => &self.reset,
-                };
-                let (id, _) = match server.receive_request() {
-                    Ok(Some(request)) => request,
+                let id = match self.server(service).receive_request() {
+                    Ok(Some((id, _))) => id,
                     Ok(None) => break,
                     Err(e) => {
                         self.warn_log.log(
                             log::Level::Warn,
-                            format!("undecodable service request: {e}"),
+                            format!("{}: undecodable request: {e}", service.name()),
                         );
                         break;
                     }
                 };
-                let response = match which {
-                    0 => self.run_calibration(),
-                    1 => self.run_commit(),
-                    _ => self.run_reset(),
+                let response = match service {
+                    Service::Calibrate => self.run_calibration(),
+                    Service::Commit => self.run_commit(),
+                    Service::Reset => self.run_reset(),
                 };
-                let name = ["calibrate", "commit", "reset"][which];
-                log::log!(
-                    if response.success {
-                        log::Level::Info
-                    } else {
-                        log::Level::Warn
-                    },
-                    "~/{name}: {}",
-                    response.message
-                );
-                let server = match which {
-                    0 => &self.calibrate,
-                    1 => &self.commit,
-                    _ => &self.reset,
+                let level = if response.success {
+                    log::Level::Info
+                } else {
+                    log::Level::Warn
                 };
-                if let Err(e) = server.send_response(id, Srv(response)) {
-                    log::warn!("~/{name}: response not sent: {e:?}");
+                log::log!(level, "{}: {}", service.name(), response.message);
+                if let Err(e) = self.server(service).send_response(id, Srv(response)) {
+                    log::warn!("{}: response not sent: {e:?}", service.name());
                 }
                 answered = true;
             }
