@@ -14,7 +14,7 @@ use stereocal::calibration_session::{
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_vision::board::{ArucoDictionary, Charuco, Chessboard, Target};
 use stereocal_vision::camera::DistortionModel;
-use stereocal_vision::image::Image;
+use stereocal_vision::image::{Image, Samples};
 use stereocal_vision::synth::{
     self, Background, CharucoMarkers, FrameKind, GroundTruth, Photometry, PixelFormat, Renderer,
     Scene, SceneKind, SceneSpec, Shot,
@@ -523,4 +523,55 @@ fn a_mono_session_calibrates_one_camera() {
             "{got:.4} against {expected:.4}"
         );
     }
+}
+
+#[test]
+fn images_of_another_size_than_the_kept_samples_are_refused() {
+    let s = session();
+    let dir = tempfile::tempdir().unwrap();
+    let mut calibration = CalibrationSession::open(stereo_config(&s.truth), dir.path()).unwrap();
+    let first = images(&s.frames[0]);
+    assert_eq!(
+        calibration
+            .offer(Time { sec: 1, nanosec: 0 }, &first)
+            .unwrap()
+            .verdict,
+        Verdict::Added
+    );
+    // The next view, framed in a larger image: the board is found but not kept.
+    let next = s
+        .truth
+        .frames
+        .iter()
+        .position(|f| f.index > 0 && f.kind == FrameKind::Clean)
+        .unwrap();
+    let padded: Vec<Image> = s.frames[next]
+        .iter()
+        .map(|image| pad(image, 1100, 800))
+        .collect();
+    let offer = calibration
+        .offer(Time { sec: 3, nanosec: 0 }, &images(&padded))
+        .unwrap();
+    assert!(offer.detections.iter().all(Option::is_some));
+    let Verdict::Refused(reason) = offer.verdict else {
+        panic!("images of another size kept: {:?}", offer.verdict);
+    };
+    assert!(
+        reason.contains("1100x800") && reason.contains("1024x768") && reason.contains("reset"),
+        "{reason}"
+    );
+    assert_eq!(calibration.sample_count(), 1);
+}
+
+/// A mono 8-bit `image` at the top left of a black `width x height` image.
+fn pad(image: &Image, width: usize, height: usize) -> Image {
+    let Samples::U8(data) = &image.samples else {
+        panic!("not 8-bit");
+    };
+    assert_eq!(image.channels, 1);
+    let mut out = vec![0u8; width * height];
+    for (y, row) in data.chunks_exact(image.width).enumerate() {
+        out[y * width..y * width + image.width].copy_from_slice(row);
+    }
+    Image::new(width, height, 1, Samples::U8(out)).unwrap()
 }

@@ -341,8 +341,9 @@ impl CalibrationSession {
     /// camera_calibration's is_good_sample), and on Added saves the samples atomically
     /// before returning.
     ///
-    /// Checks, in order: the board is found whole in every camera; the images have the
-    /// size of the kept samples' images; the board moves no faster than
+    /// Checks, in order: the board is found in every camera (a chessboard whole, a
+    /// ChArUco board at least in part); the images have the size of the kept samples'
+    /// images; the board moves no faster than
     /// `max_board_speed` (measured in the first camera); its edges are no wider than
     /// `max_blur` in any camera; its view (in the first camera, as camera_calibration
     /// judges a stereo pair by its left view) is farther than [`NOVELTY_DISTANCE`] from
