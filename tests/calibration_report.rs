@@ -19,8 +19,8 @@ use stereocal_vision::synth::GroundTruth;
 
 /// Synthesizes a 1024x768 stereo calibration session of `frames` frames into `dir`
 /// with a fraction `bad` of bad frames, the cameras side by side or one above the other
-/// (`vertical`).
-fn synthesize(dir: &Path, frames: usize, bad: f64, vertical: bool) -> GroundTruth {
+/// (`vertical`), in mono8 or rgb8 (`rgb`).
+fn synthesize(dir: &Path, frames: usize, bad: f64, vertical: bool, rgb: bool) -> GroundTruth {
     stereocal::cli::synth::run(&SynthArgs {
         scene: SceneArg::Calibration,
         out: dir.to_path_buf(),
@@ -30,7 +30,7 @@ fn synthesize(dir: &Path, frames: usize, bad: f64, vertical: bool) -> GroundTrut
         height: 768,
         model: ModelArg::PlumbBob,
         bad_frames: Some(bad),
-        rgb: false,
+        rgb,
         vertical,
     })
     .unwrap();
@@ -134,7 +134,7 @@ fn picture(html: &str) -> image::RgbImage {
 #[test]
 fn stereo_report_shows_the_calibration_it_reports() {
     let dir = tempfile::tempdir().unwrap();
-    let truth = synthesize(dir.path(), 14, 0.25, false);
+    let truth = synthesize(dir.path(), 14, 0.25, false, false);
     let report = calibrate(dir.path(), &truth, None);
     let outcome = &report.outcome;
     assert_eq!(report.report, dir.path().join("calibration/report.html"));
@@ -283,9 +283,9 @@ fn stereo_report_shows_the_calibration_it_reports() {
 }
 
 #[test]
-fn mono_report_shows_the_undistorted_image() {
+fn mono_report_shows_the_undistorted_colour_image() {
     let dir = tempfile::tempdir().unwrap();
-    let truth = synthesize(dir.path(), 4, 0.0, false);
+    let truth = synthesize(dir.path(), 4, 0.0, false, true);
     let report = calibrate(dir.path(), &truth, Some("/stereo/left/image_raw"));
     let html = std::fs::read_to_string(&report.report).unwrap();
     let [camera] = report.outcome.cameras.as_slice() else {
@@ -301,13 +301,14 @@ fn mono_report_shows_the_undistorted_image() {
     assert!(attribute(rectified, "data-epipolar-rows").is_none());
     let image = picture(&html);
     assert_eq!(image.dimensions(), (1024, 768));
-    assert!(image.pixels().all(|p| p[0] == p[1] && p[1] == p[2]));
+    // An rgb8 camera keeps its colours.
+    assert!(image.pixels().any(|p| p[0] != p[1] || p[1] != p[2]));
 }
 
 #[test]
 fn vertical_rig_has_epipolar_columns() {
     let dir = tempfile::tempdir().unwrap();
-    let truth = synthesize(dir.path(), 6, 0.0, true);
+    let truth = synthesize(dir.path(), 6, 0.0, true, false);
     let report = calibrate(dir.path(), &truth, None);
     let html = std::fs::read_to_string(&report.report).unwrap();
     let stereo = report.outcome.stereo.as_ref().unwrap();
