@@ -1,7 +1,9 @@
-//! The calibration session on synthesized stereo sessions: bad frames refused for
-//! their reason and good ones kept, repeated views not new, a fast-moving board
-//! refused, the sample store surviving a reopen, a store of another target refused, and
-//! a calibration from the kept samples against ground truth.
+//! The calibration session on synthesized sessions: bad frames refused for their
+//! reason and good ones kept by camera_calibration's coverage rule, defocus and motion
+//! blur told apart, repeated views not new, a fast-moving board refused, images of
+//! another size refused, the sample store surviving a reopen (and a failed write), a
+//! store of another target refused, ChArUco boards kept in part, and calibrations from
+//! the kept samples (stereo and mono) against ground truth.
 
 use std::sync::{Arc, OnceLock};
 
@@ -574,4 +576,30 @@ fn pad(image: &Image, width: usize, height: usize) -> Image {
         out[y * width..y * width + image.width].copy_from_slice(row);
     }
     Image::new(width, height, 1, Samples::U8(out)).unwrap()
+}
+
+#[test]
+fn a_sample_that_cannot_be_stored_is_not_kept() {
+    let s = session();
+    let dir = tempfile::tempdir().unwrap();
+    let store_dir = dir.path().join("state");
+    let mut calibration = CalibrationSession::open(stereo_config(&s.truth), &store_dir).unwrap();
+    // The store's folder cannot be made: a file has its name.
+    std::fs::write(&store_dir, b"not a folder").unwrap();
+    let error = calibration
+        .offer(Time { sec: 1, nanosec: 0 }, &images(&s.frames[0]))
+        .unwrap_err();
+    assert!(
+        matches!(error, SessionError::StoreWrite { .. }),
+        "{error:?}"
+    );
+    assert!(error.to_string().contains("state"), "{error}");
+    assert_eq!(calibration.sample_count(), 0);
+    // Once the store can be written, the same view is new and kept.
+    std::fs::remove_file(&store_dir).unwrap();
+    let offer = calibration
+        .offer(Time { sec: 3, nanosec: 0 }, &images(&s.frames[0]))
+        .unwrap();
+    assert_eq!(offer.verdict, Verdict::Added);
+    assert!(store_path(&store_dir).exists());
 }
