@@ -10,7 +10,9 @@
 //! - `~/status` (std_msgs/String, reliable, transient local): the progress as JSON,
 //!   `{"samples", "ready", "cameras": [{"name", "x", "y", "size", "skew"}], "verdict",
 //!   "reason", "frames": {"received", "judged", "dropped", "unpaired"}, "calibration"}`
-//!   after every judged frame, at start-up and after every service call;
+//!   (`calibration` is null until calibrated, then `{"cameras": [{"name", "rms",
+//!   "views_used", "k", "d"}], "stereo": {"rms", "epipolar_rms", "pairs_used"}}`) after
+//!   every judged frame, at start-up and after every service call;
 //! - `~/annotated_image` (mono) or `~/left/annotated_image` and
 //!   `~/right/annotated_image` (stereo): each judged image as rgb8 with the detected
 //!   corners, the coverage bars and the verdict.
