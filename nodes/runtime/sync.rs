@@ -298,6 +298,15 @@ mod tests {
     }
 
     #[test]
+    fn approximate_frame_pairing_pairs_equal_stamps_without_waiting() {
+        let mut sync = FramePairing::new(10, 4);
+        assert!(sync.push_right(100, "r100").is_empty());
+        assert_eq!(sync.push_left(100, "l100"), vec![("l100", "r100")]);
+        assert_eq!(sync.waiting(), (0, 0));
+        assert_eq!(sync.unpaired(), 0);
+    }
+
+    #[test]
     fn frame_pairing_is_bounded_and_sorts_late_frames() {
         let mut sync = FramePairing::<u32, u32>::new(0, 2);
         for (i, stamp) in [10, 30, 20].into_iter().enumerate() {
