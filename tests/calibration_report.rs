@@ -148,6 +148,18 @@ fn stereo_report_shows_the_calibration_it_reports() {
     assert_eq!(html.matches("src=\"").count(), 1);
     assert_eq!(html.matches("src=\"data:image/png;base64,").count(), 1);
 
+    // The warnings on the result head the summary, one item each.
+    let warnings = stereocal::calibration_advice::warnings(outcome);
+    assert!(
+        !warnings.is_empty(),
+        "a 14-frame session is too short to trust"
+    );
+    let list = element(&html, "ul", "warnings", None);
+    assert_eq!(list.matches("<li").count(), warnings.len());
+    for warning in &warnings {
+        assert!(list.contains(warning.as_str()), "{warning}");
+    }
+
     // One error bar per used and per rejected view of each camera, rejected views with
     // their reason as the tooltip.
     let corners_per_view = truth.board.cols * truth.board.rows;

@@ -1,4 +1,4 @@
-//! The report's summary: each camera's K, D with their standard deviations, RMS and the
+//! The report's summary: warnings on a result not to trust blindly, each camera's K, D with their standard deviations, RMS and the
 //! views used and rejected (stamp and reason); for a pair, `right_from_left`, the
 //! baseline and the epipolar error.
 
@@ -8,11 +8,22 @@ use stereocal_vision::camera::DistortionModel;
 
 use super::html::escape;
 use super::views::stamp_text;
+use crate::calibration_advice;
 use crate::calibration_stage::{CalibrationOutcome, CameraResult, RejectedFrame, StereoResult};
 
-/// The summary as HTML.
+/// The summary as HTML: the warnings first, when the result should not be trusted
+/// blindly.
 pub(crate) fn summary(outcome: &CalibrationOutcome) -> String {
-    let mut out = String::from("<div class=\"cameras\">");
+    let mut out = String::new();
+    let warnings = calibration_advice::warnings(outcome);
+    if !warnings.is_empty() {
+        out.push_str("<ul class=\"warnings\">");
+        for warning in &warnings {
+            let _ = write!(out, "<li class=\"rejected\">{}</li>", escape(warning));
+        }
+        out.push_str("</ul>\n");
+    }
+    out.push_str("<div class=\"cameras\">");
     for camera in &outcome.cameras {
         out.push_str("<div>");
         out.push_str(&camera_summary(camera));
