@@ -27,7 +27,7 @@
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use anyhow::{Context, anyhow};
 use futures::{FutureExt, StreamExt};
@@ -54,9 +54,7 @@ use crate::runtime::queue::DropOldestQueue;
 use crate::runtime::service::{self, ServiceClient, ServiceServer, Srv};
 use crate::runtime::shutdown::Shutdown;
 use crate::runtime::sync::FramePairing;
-
-/// How often the same kind of message is logged again.
-const REPEAT_LOG_PERIOD: Duration = Duration::from_secs(5);
+use crate::runtime::throttle::Throttle;
 
 /// How long the worker waits for a frame before it looks at the services again.
 const SERVICE_POLL: Duration = Duration::from_millis(20);
@@ -312,25 +310,6 @@ fn settings(node: &RosNode) -> anyhow::Result<CalibrateSettings> {
         state_dir,
         camera_info_paths,
     })
-}
-
-/// Logs a message at most once per [`REPEAT_LOG_PERIOD`] unless its text changes.
-#[derive(Default)]
-struct Throttle {
-    last: Option<(String, Instant)>,
-}
-
-impl Throttle {
-    fn log(&mut self, level: log::Level, message: String) {
-        let repeat = self
-            .last
-            .as_ref()
-            .is_some_and(|(m, at)| *m == message && at.elapsed() < REPEAT_LOG_PERIOD);
-        if !repeat {
-            log::log!(level, "{message}");
-            self.last = Some((message, Instant::now()));
-        }
-    }
 }
 
 /// A synchronized frame: one image per camera, in camera order.

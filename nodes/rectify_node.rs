@@ -9,7 +9,6 @@
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::{Duration, Instant};
 
 use crate::rectify_stage::{Rectified, Rectifier};
 use crate::runtime::node::NodeBuilder;
@@ -18,14 +17,12 @@ use crate::runtime::qos;
 use crate::runtime::queue::DropOldestQueue;
 use crate::runtime::sequence_gaps::SequenceGaps;
 use crate::runtime::sync::StampPairing;
+use crate::runtime::throttle::Throttle;
 use anyhow::Context;
 use futures::{FutureExt, StreamExt};
 use ros2_client::{ParameterValue, Publisher};
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 use stereocal_vision::rectify::{Interpolation, RemapOptions};
-
-/// How often the same kind of problem is logged again.
-const REPEAT_LOG_PERIOD: Duration = Duration::from_secs(5);
 
 /// A frame to rectify, with the camera_info it was paired with and the interpolation
 /// in force when it was received.
@@ -33,25 +30,6 @@ struct Work {
     image: Image,
     info: Arc<CameraInfo>,
     interpolation: Interpolation,
-}
-
-/// Logs a message at most once per [`REPEAT_LOG_PERIOD`] unless its text changes.
-#[derive(Default)]
-struct Throttle {
-    last: Option<(String, Instant)>,
-}
-
-impl Throttle {
-    fn warn(&mut self, message: String) {
-        let repeat = self
-            .last
-            .as_ref()
-            .is_some_and(|(m, at)| *m == message && at.elapsed() < REPEAT_LOG_PERIOD);
-        if !repeat {
-            log::warn!("{message}");
-            self.last = Some((message, Instant::now()));
-        }
-    }
 }
 
 fn rectify_loop(

@@ -24,6 +24,7 @@ pub mod sequence_gaps;
 pub mod service;
 pub mod shutdown;
 pub mod sync;
+pub mod throttle;
 pub mod transport;
 
 pub use error::{Result, RuntimeError};
