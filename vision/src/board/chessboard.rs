@@ -16,7 +16,7 @@ use calib_targets_chessboard::{
     ChessboardDetector as GridDetector, ChessboardParams, DetectorConfig, GrayImageView,
     detect_corners,
 };
-use chess_corners::ImageRefiner;
+use chess_corners::{ImageRefiner, MultiscaleConfig};
 use nalgebra::Point2;
 
 use super::detection::{Detection, TargetDetector};
@@ -120,6 +120,36 @@ impl ChessboardDetector {
         best.map(|(_, ordered, predicted)| (ordered, predicted))
     }
 
+    /// [`find_board`](Self::find_board) on a copy of the image at `1 / scale` of its
+    /// resolution, the corners mapped to the full image.
+    fn find_board_scaled(&self, level: &Gray, scale: f64) -> Option<(Vec<Point2<f64>>, Vec<bool>)> {
+        self.find_board(level).map(|(corners, predicted)| {
+            let corners = corners
+                .into_iter()
+                .map(|p| Point2::new((p.x + 0.5) * scale - 0.5, (p.y + 0.5) * scale - 0.5))
+                .collect();
+            (corners, predicted)
+        })
+    }
+
+    /// Levels of the corner detector's pyramid for `gray`: each level half the one
+    /// before, as long as both sides stay at least the configured minimum.
+    fn pyramid_levels(&self, gray: &Gray) -> usize {
+        let MultiscaleConfig::Pyramid {
+            levels, min_size, ..
+        } = self.corner_config.multiscale
+        else {
+            return 1;
+        };
+        let mut side = gray.width.min(gray.height);
+        let mut count = 0;
+        while count < usize::from(levels) && side >= min_size {
+            count += 1;
+            side /= 2;
+        }
+        count
+    }
+
     /// How clearly corner `k` is a chessboard corner: the grey levels a quarter of a
     /// square out along its four diagonals, as the smallest difference between
     /// neighbouring quadrants (an X-junction's quadrants alternate; an edge of the
@@ -191,18 +221,28 @@ impl TargetDetector for ChessboardDetector {
     }
 
     fn detect_gray(&self, gray: &Gray) -> Option<Detection> {
-        let mut found = self.find_board(gray);
+        // When the corner pyramid of this image has two levels, its corners are found
+        // on the half-resolution level and found again at full resolution, which our
+        // sub-pixel refinement at full resolution makes redundant: the half-resolution
+        // copy is searched first, and the full image only when it gives no board.
+        let half_first = self.pyramid_levels(gray) == 2;
+        let mut half = None;
+        let mut found = None;
+        if half_first {
+            let level = gray.half();
+            found = self.find_board_scaled(&level, 2.0);
+            half = Some(level);
+        }
         if found.is_none() {
-            let mut level = gray.half();
-            let mut scale = 2.0;
+            found = self.find_board(gray);
+        }
+        if found.is_none() {
+            let (mut level, mut scale) = match half {
+                Some(level) => (level.half(), 4.0),
+                None => (gray.half(), 2.0),
+            };
             while found.is_none() && level.width.min(level.height) >= MIN_LEVEL_SIDE {
-                found = self.find_board(&level).map(|(corners, predicted)| {
-                    let corners = corners
-                        .into_iter()
-                        .map(|p| Point2::new((p.x + 0.5) * scale - 0.5, (p.y + 0.5) * scale - 0.5))
-                        .collect();
-                    (corners, predicted)
-                });
+                found = self.find_board_scaled(&level, scale);
                 level = level.half();
                 scale *= 2.0;
             }
