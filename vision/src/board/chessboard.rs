@@ -8,7 +8,8 @@
 //! board sizes. Of several grids (a second board in view) the largest in the image
 //! that fits is taken. Large squares weaken the detector, so when the full image
 //! gives nothing it runs again on half-resolution copies, and the corners found are
-//! refined at full resolution. Corner positions from `chess-corners` already have
+//! refined at full resolution. Images whose corner pyramid has two levels (a shorter
+//! side of 256 to 511 pixels) are searched at half resolution first. Corner positions from `chess-corners` already have
 //! pixel centres at integer coordinates (its pyramid and upscaling map
 //! `x_src = (x_out + 0.5) / k - 0.5`), the convention of this crate.
 
