@@ -1,11 +1,11 @@
 //! End to end: a synthetic stereo calibration session (1024x768, 40 frames, about one
-//! in ten bad; 70 for one camera alone) replayed over DDS on loopback into a `calibrate_node` process (on this
-//! test's own ROS domain); `~/calibrate` and `~/commit` called through service clients,
-//! the written camera_info files checked against ground truth, and a fake camera's
-//! `set_camera_info` receiving the same calibration. A second test kills the node
-//! mid-session and finds the samples again after a restart (and none after `~/reset`);
-//! a third calibrates the left
-//! camera alone with `auto_calibrate`.
+//! in ten bad; 70 for one camera alone) replayed over DDS on loopback into a
+//! `calibrate_node` process (on this test's own ROS domain); `~/calibrate` and `~/commit`
+//! called through service clients, the written camera_info files checked against ground
+//! truth, and a fake camera's `set_camera_info` receiving the same calibration. A second
+//! test kills the node mid-session and finds the samples again after a restart (and none
+//! after `~/reset`), the restarted node pairing frames whose stamps differ within its
+//! `slop`; a third calibrates the left camera alone with `auto_calibrate`.
 
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -124,6 +124,11 @@ struct NodeProcess {
 impl NodeProcess {
     /// Starts the node for `rig` with its state and camera_info files in `dir`.
     fn start(domain: u16, dir: &Path, rig: Rig) -> Self {
+        Self::start_with(domain, dir, rig, &[])
+    }
+
+    /// [`NodeProcess::start`] with further `-p` parameters (`name:=value`).
+    fn start_with(domain: u16, dir: &Path, rig: Rig, params: &[&str]) -> Self {
         let state = dir.join("state");
         let url = |name: &str| format!("file://{}", dir.join(format!("{name}.yaml")).display());
         let mut args: Vec<String> = [
@@ -164,6 +169,9 @@ impl NodeProcess {
             ],
         };
         args.extend(rig_args);
+        for param in params {
+            args.extend(["-p".to_owned(), (*param).to_owned()]);
+        }
         let mut child = Command::new(env!("CARGO_BIN_EXE_calibrate_node"))
             .args(&args)
             .env("ROS_DOMAIN_ID", domain.to_string())
@@ -393,12 +401,23 @@ impl Player {
     /// has judged it (sending it again
     /// while the node's readers have not matched ours yet, as frames are best-effort).
     fn send_pair(&mut self, pair: &(Image, Image)) {
+        self.send_skewed_pair(pair, 0);
+    }
+
+    /// [`Player::send_pair`] with the right image stamped `skew_ns` after the left, as
+    /// cameras without a shared trigger stamp their frames.
+    fn send_skewed_pair(&mut self, pair: &(Image, Image), skew_ns: u32) {
         let judged = self.status_count("judged");
         let deadline = Instant::now() + Duration::from_secs(30);
+        let mut right_image = pair.1.clone();
+        let stamp = &mut right_image.header.stamp;
+        let nanosec = u64::from(stamp.nanosec) + u64::from(skew_ns);
+        stamp.sec += i32::try_from(nanosec / 1_000_000_000).expect("seconds");
+        stamp.nanosec = u32::try_from(nanosec % 1_000_000_000).expect("nanoseconds");
         loop {
             self.left.publish(pair.0.clone()).expect("publish left");
             if let Some(right) = &self.right {
-                right.publish(pair.1.clone()).expect("publish right");
+                right.publish(right_image.clone()).expect("publish right");
             }
             let resend = Instant::now() + FRAME_TIMEOUT.min(Duration::from_secs(1));
             while Instant::now() < resend {
@@ -588,8 +607,10 @@ fn samples_survive_a_killed_node() {
     assert!(logs.contains("sample added"), "{logs}");
 
     // The restarted node reports the samples it found in state_dir before any frame.
+    // It pairs frames within 10 ms (ApproximateTime), as the rest of the session comes
+    // from cameras whose stamps differ by 4 ms.
     player.poll_status();
-    let node = NodeProcess::start(domain, dir.path(), Rig::Stereo);
+    let node = NodeProcess::start_with(domain, dir.path(), Rig::Stereo, &["slop:=0.01"]);
     player.wait_for_node();
     assert_eq!(
         player.status_count("samples"),
@@ -614,9 +635,15 @@ fn samples_survive_a_killed_node() {
     );
 
     for pair in &session.pairs[sent..] {
-        player.send_pair(pair);
+        player.send_skewed_pair(pair, 4_000_000);
     }
     assert!(player.status_count("samples") > kept);
+    assert_eq!(
+        player.status_count("judged") as usize,
+        session.pairs.len() - sent,
+        "every skewed pair paired: {}",
+        player.last_status
+    );
     let calibrated = player.trigger("calibrate");
     assert!(calibrated.success, "{}", calibrated.message);
 
