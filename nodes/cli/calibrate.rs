@@ -20,7 +20,9 @@ use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
 use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::Image as ImageMsg;
-use stereocal_vision::board::{PatternArgs, Target, TargetDetector, detector_for};
+use stereocal_vision::board::{
+    MIN_CHARUCO_CORNERS, PatternArgs, Target, TargetDetector, detector_for,
+};
 use stereocal_vision::calib::View;
 use stereocal_vision::camera::DistortionModel;
 
@@ -397,7 +399,12 @@ fn detect_one(
         Err(e) => return Some(unusable(e.to_string())),
     };
     let corners = match detection {
-        None => FrameCorners::Unusable("no complete board found".to_owned()),
+        None => FrameCorners::Unusable(match target {
+            Target::Chessboard(_) => "no complete board found".to_owned(),
+            Target::Charuco(_) => format!(
+                "no ChArUco board found (at least {MIN_CHARUCO_CORNERS} corners, not all in one line)"
+            ),
+        }),
         Some(detection) => match detection.object_points(target) {
             Some(points_in_target) => FrameCorners::Found(View {
                 points_in_target,
