@@ -1,8 +1,8 @@
 //! ChArUco detection: ChESS corners from `chess-corners` (saddle-point refiner; on the
 //! image, then on a copy upscaled twice, which finds boards of small squares and fine
-//! marker bits the first pass breaks up), grid labelling, marker decoding and board alignment from
-//! `calib-targets-charuco` (its three-configuration sweep, the result with the most
-//! markers and corners kept).
+//! marker bits the first pass breaks up), grid labelling, marker decoding and board
+//! alignment from `calib-targets-charuco` (its three-configuration sweep; the result
+//! with the most markers and corners, completed by the results that agree with it).
 //!
 //! The corners are the saddle points the crate fits, not refined further: the
 //! gradient-orthogonality refiner of [`refine_corners`](super::refine_corners) must
