@@ -78,7 +78,7 @@ pub fn warnings(outcome: &CalibrationOutcome) -> Vec<String> {
             warnings.push(format!(
                 "stereo: only {} pairs used: right_from_left from fewer than \
                  {MIN_TRUSTED_VIEWS} pairs is unreliable; collect 15 to 25 pairs with the \
-                 board seen whole by both cameras",
+                 board seen by both cameras",
                 stereo.used.len()
             ));
         }

@@ -214,6 +214,8 @@ fn calibration_session(out: &Path) -> anyhow::Result<()> {
         );
     }
 
+    println!("  report: {}", report.report.display());
+
     // Rectify the session with the calibration and measure its rows.
     scene.left = calibrated_camera_from_info(&left.info)?;
     scene.right = calibrated_camera_from_info(&right.info)?;
