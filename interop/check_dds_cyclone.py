@@ -16,24 +16,19 @@ Usage (after `cargo build --bin rectify_node`):
 import argparse
 import os
 import re
-import signal
 import subprocess
-import sys
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
-from cyclonedds.core import Policy, Qos
 from cyclonedds.domain import DomainParticipant
-from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.annotations import final
-from cyclonedds.idl.types import array, float64, int32, sequence, uint8, uint32
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
-from cyclonedds.util import duration
+from ros2_cyclone import (
+    CameraInfo, Header, Image, RegionOfInterest, Time, fail, reliable_qos, stop_node,
+)
 
 ROOT = Path(__file__).resolve().parent.parent
 WIDTH, HEIGHT = 320, 240
@@ -41,68 +36,11 @@ FRAMES = 10
 TIMEOUT_S = 20.0
 
 
-@final
-@dataclass
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: int32
-    nanosec: uint32
-
-
-@final
-@dataclass
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time
-    frame_id: str
-
-
-@final
-@dataclass
-class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
-    header: Header
-    height: uint32
-    width: uint32
-    encoding: str
-    is_bigendian: uint8
-    step: uint32
-    data: sequence[uint8]
-
-
-@final
-@dataclass
-class RegionOfInterest(IdlStruct, typename="sensor_msgs::msg::dds_::RegionOfInterest_"):
-    x_offset: uint32
-    y_offset: uint32
-    height: uint32
-    width: uint32
-    do_rectify: bool
-
-
-@final
-@dataclass
-class CameraInfo(IdlStruct, typename="sensor_msgs::msg::dds_::CameraInfo_"):
-    header: Header
-    height: uint32
-    width: uint32
-    distortion_model: str
-    d: sequence[float64]
-    k: array[float64, 9]
-    r: array[float64, 9]
-    p: array[float64, 12]
-    binning_x: uint32
-    binning_y: uint32
-    roi: RegionOfInterest
-
-
 K = [260.0, 0.0, 161.5, 0.0, 262.0, 118.5, 0.0, 0.0, 1.0]
 D = [-0.25, 0.08, 0.001, -0.0005, 0.0]
 ANGLE = 0.03
 R = [np.cos(ANGLE), 0.0, np.sin(ANGLE), 0.0, 1.0, 0.0, -np.sin(ANGLE), 0.0, np.cos(ANGLE)]
 P = [240.0, 0.0, 158.0, 0.0, 0.0, 240.0, 121.0, 0.0, 0.0, 0.0, 1.0, 0.0]
-
-
-def fail(message):
-    print(f"FAIL: {message}", file=sys.stderr)
-    sys.exit(1)
 
 
 def pixels(index, channels):
@@ -164,13 +102,7 @@ def main():
     try:
         check(args.domain)
     finally:
-        if node.poll() is None:
-            node.send_signal(signal.SIGTERM)
-        try:
-            _, stderr = node.communicate(timeout=10)
-        except subprocess.TimeoutExpired:
-            node.kill()
-            fail("rectify_node did not stop on SIGTERM")
+        stderr = stop_node(node, "rectify_node")
     if node.returncode != 0:
         fail(f"rectify_node exited with {node.returncode}:\n{stderr}")
     summary = re.search(r"(\d+) image\(s\) received, (\d+) published, (\d+) dropped", stderr)
@@ -181,16 +113,8 @@ def main():
 
 def check(domain):
     participant = DomainParticipant(domain)
-    writer_qos = Qos(
-        Policy.Reliability.Reliable(duration(seconds=1)),
-        Policy.History.KeepLast(10),
-        Policy.DataRepresentation(use_cdrv0_representation=True),
-    )
-    reader_qos = Qos(
-        Policy.Reliability.Reliable(duration(seconds=1)),
-        Policy.History.KeepLast(50),
-        Policy.DataRepresentation(use_cdrv0_representation=True),
-    )
+    writer_qos = reliable_qos(10)
+    reader_qos = reliable_qos(50)
     image_writer = DataWriter(participant, Topic(participant, "rt/cam/image_raw", Image), writer_qos)
     info_writer = DataWriter(participant, Topic(participant, "rt/cam/camera_info", CameraInfo), writer_qos)
     rect_reader = DataReader(participant, Topic(participant, "rt/cam/image_rect", Image), reader_qos)
