@@ -16,84 +16,35 @@ Usage (after `cargo build --bin calibrate_node --bin stereocal`):
 import argparse
 import json
 import os
-import signal
 import subprocess
-import sys
 import tempfile
 import time
-from dataclasses import dataclass
 from pathlib import Path
 
-from cyclonedds.core import Policy, Qos
+from bag_images import messages
 from cyclonedds.domain import DomainParticipant
-from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.annotations import final
-from cyclonedds.idl.types import int32, sequence, uint8, uint32
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
-from cyclonedds.util import duration
-from rosbags.rosbag2 import Reader
-from rosbags.typesys import Stores, get_typestore
+from ros2_cyclone import Header, Image, String, Time, fail, reliable_qos, stop_node
 
 ROOT = Path(__file__).resolve().parent.parent
 FRAMES = 30
 TIMEOUT_S = 20.0
 
 
-@final
-@dataclass
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: int32
-    nanosec: uint32
-
-
-@final
-@dataclass
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time
-    frame_id: str
-
-
-@final
-@dataclass
-class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
-    header: Header
-    height: uint32
-    width: uint32
-    encoding: str
-    is_bigendian: uint8
-    step: uint32
-    data: sequence[uint8]
-
-
-@final
-@dataclass
-class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
-    data: str
-
-
-def fail(message):
-    print(f"FAIL: {message}", file=sys.stderr)
-    sys.exit(1)
-
-
 def read_pairs(bag):
     """The bag's (left, right) images in stamp order, as Cyclone messages."""
-    typestore = get_typestore(Stores.ROS2_HUMBLE)
     frames = {"/stereo/left/image_raw": [], "/stereo/right/image_raw": []}
-    with Reader(bag) as reader:
-        connections = [c for c in reader.connections if c.topic in frames]
-        for connection, _, raw in reader.messages(connections=connections):
-            msg = typestore.deserialize_cdr(raw, connection.msgtype)
-            header = Header(
-                stamp=Time(sec=msg.header.stamp.sec, nanosec=msg.header.stamp.nanosec),
-                frame_id=msg.header.frame_id,
-            )
-            frames[connection.topic].append(Image(
-                header=header, height=msg.height, width=msg.width, encoding=msg.encoding,
-                is_bigendian=msg.is_bigendian, step=msg.step, data=bytes(msg.data),
-            ))
+    for topic, msg in messages(bag, frames):
+        header = Header(
+            stamp=Time(sec=msg.header.stamp.sec, nanosec=msg.header.stamp.nanosec),
+            frame_id=msg.header.frame_id,
+        )
+        frames[topic].append(Image(
+            header=header, height=msg.height, width=msg.width, encoding=msg.encoding,
+            is_bigendian=msg.is_bigendian, step=msg.step, data=bytes(msg.data),
+        ))
     return list(zip(frames["/stereo/left/image_raw"], frames["/stereo/right/image_raw"]))
 
 
@@ -128,13 +79,7 @@ def main():
         try:
             status = check(args.domain, pairs)
         finally:
-            if node.poll() is None:
-                node.send_signal(signal.SIGTERM)
-            try:
-                _, stderr = node.communicate(timeout=10)
-            except subprocess.TimeoutExpired:
-                node.kill()
-                fail("calibrate_node did not stop on SIGTERM")
+            stderr = stop_node(node, "calibrate_node")
         if node.returncode != 0:
             fail(f"calibrate_node exited with {node.returncode}:\n{stderr}")
     print(f"OK: Cyclone DDS sent {FRAMES} pairs to calibrate_node, which judged every one "
@@ -143,17 +88,8 @@ def main():
 
 def check(domain, pairs):
     participant = DomainParticipant(domain)
-    writer_qos = Qos(
-        Policy.Reliability.Reliable(duration(seconds=1)),
-        Policy.History.KeepLast(10),
-        Policy.DataRepresentation(use_cdrv0_representation=True),
-    )
-    status_qos = Qos(
-        Policy.Reliability.Reliable(duration(seconds=1)),
-        Policy.Durability.TransientLocal,
-        Policy.History.KeepLast(10),
-        Policy.DataRepresentation(use_cdrv0_representation=True),
-    )
+    writer_qos = reliable_qos(10)
+    status_qos = reliable_qos(10, transient_local=True)
     left = DataWriter(participant, Topic(participant, "rt/stereo/left/image_raw", Image), writer_qos)
     right = DataWriter(participant, Topic(participant, "rt/stereo/right/image_raw", Image), writer_qos)
     status_reader = DataReader(
