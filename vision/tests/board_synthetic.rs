@@ -2,64 +2,29 @@
 //! corners are known exactly: accuracy on clean frames, detection under blur, noise,
 //! uneven light and clutter, and refusal of wrong board sizes and partial boards.
 
-use std::sync::Arc;
+mod common;
 
-use nalgebra::{Isometry3, Point2, UnitQuaternion};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use common::render::Scene;
+use nalgebra::{Isometry3, Point2};
 use stereocal_vision::board::{self, ChessboardDetector, TargetDetector};
-use stereocal_vision::camera::{CameraModel, DistortionModel};
+use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::image::Image;
-use stereocal_vision::synth::{
-    Background, Chessboard, Coverage, Photometry, PixelFormat, PoseRanges, PoseSampler, Renderer,
-    Shot, corner_truth, synthetic_camera,
-};
+use stereocal_vision::synth::{Chessboard, Coverage, Photometry, corner_truth};
 
 const COLS: usize = 9;
 const ROWS: usize = 6;
 
-struct Session {
-    camera: CameraModel,
-    board: Chessboard,
-    renderer: Renderer,
-    poses: Vec<Isometry3<f64>>,
-}
-
-fn session(seed: u64, coverage: Coverage, views: usize) -> Session {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let camera = synthetic_camera(DistortionModel::PlumbBob, 1280, 720, &mut rng);
+fn session(seed: u64, coverage: Coverage, views: usize) -> Scene {
     let board = Chessboard::new(COLS, ROWS, 0.04, 0.03).unwrap();
-    let renderer = Renderer::new(
-        camera.clone(),
+    Scene::new(
+        seed,
+        DistortionModel::PlumbBob,
+        1280,
+        720,
         board,
-        Arc::new(Background::new(seed)),
-        UnitQuaternion::identity(),
-    );
-    let sampler = PoseSampler::new(
-        vec![(&camera, Isometry3::identity())],
-        board,
-        PoseRanges::default(),
-    );
-    let poses = (0..views)
-        .map(|index| sampler.sample(&mut rng, index, coverage).unwrap())
-        .collect();
-    Session {
-        camera,
-        board,
-        renderer,
-        poses,
-    }
-}
-
-fn render(session: &Session, pose: &Isometry3<f64>, photometry: Photometry, seed: u64) -> Image {
-    session.renderer.render(&Shot {
-        camera_from_target: *pose,
-        motion_to: None,
-        photometry,
-        supersampling: 8,
-        format: PixelFormat::Mono8,
-        noise_seed: seed,
-    })
+        coverage,
+        views,
+    )
 }
 
 fn detector(cols: usize, rows: usize) -> ChessboardDetector {
@@ -67,7 +32,7 @@ fn detector(cols: usize, rows: usize) -> ChessboardDetector {
 }
 
 /// Distances of the detected corners from the truth, or `None` when not detected.
-fn errors(session: &Session, pose: &Isometry3<f64>, image: &Image) -> Option<Vec<f64>> {
+fn errors(session: &Scene, pose: &Isometry3<f64>, image: &Image) -> Option<Vec<f64>> {
     let detection = detector(COLS, ROWS).detect(image).unwrap()?;
     let truth = corner_truth(&session.camera, &session.board, pose);
     assert_eq!(detection.corners.len(), truth.len());
@@ -93,7 +58,7 @@ fn clean_frames_median_error_within_three_hundredths() {
     let session = session(11, Coverage::Full, 8);
     let mut all = Vec::new();
     for (index, pose) in session.poses.iter().enumerate() {
-        let image = render(&session, pose, Photometry::ideal(), index as u64);
+        let image = session.render(pose, Photometry::ideal(), index as u64);
         let errors = errors(&session, pose, &image)
             .unwrap_or_else(|| panic!("clean view {index} not detected"));
         // Every corner is the right one (a wrong order would be squares off).
@@ -123,7 +88,7 @@ fn blurred_noisy_unevenly_lit_cluttered_frames_are_detected() {
     };
     for (index, pose) in session.poses.iter().enumerate() {
         for (what, photometry) in [("realistic", Photometry::realistic()), ("hard", hard)] {
-            let image = render(&session, pose, photometry, 100 + index as u64);
+            let image = session.render(pose, photometry, 100 + index as u64);
             let errors = errors(&session, pose, &image)
                 .unwrap_or_else(|| panic!("{what} view {index} not detected"));
             let mean = errors.iter().sum::<f64>() / errors.len() as f64;
@@ -141,7 +106,7 @@ fn blurred_noisy_unevenly_lit_cluttered_frames_are_detected() {
 fn wrong_board_sizes_are_rejected() {
     let session = session(13, Coverage::Full, 3);
     for (index, pose) in session.poses.iter().enumerate() {
-        let image = render(&session, pose, Photometry::realistic(), index as u64);
+        let image = session.render(pose, Photometry::realistic(), index as u64);
         assert!(detector(COLS, ROWS).detect(&image).unwrap().is_some());
         // (6x9 is the same board turned a quarter, not a wrong size.)
         for (cols, rows) in [(8, 6), (9, 5), (7, 5), (10, 6), (9, 7), (5, 8)] {
@@ -157,7 +122,7 @@ fn wrong_board_sizes_are_rejected() {
 fn partial_boards_are_rejected() {
     let session = session(14, Coverage::Partial, 6);
     for (index, pose) in session.poses.iter().enumerate() {
-        let image = render(&session, pose, Photometry::realistic(), index as u64);
+        let image = session.render(pose, Photometry::realistic(), index as u64);
         assert!(
             detector(COLS, ROWS).detect(&image).unwrap().is_none(),
             "partial view {index} accepted"

@@ -3,22 +3,19 @@
 //! and noise, and refusal of chessboards and of a board printed from another
 //! dictionary.
 
-use std::collections::BTreeSet;
-use std::sync::Arc;
+mod common;
 
-use nalgebra::{Isometry3, Point2, UnitQuaternion};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use std::collections::BTreeSet;
+
+use common::render::Scene;
+use nalgebra::{Isometry3, Point2};
 use stereocal_vision::board::{
     self, ArucoDictionary, CharucoDetector, MIN_CHARUCO_CORNERS, Target, TargetDetector,
     detector_for,
 };
-use stereocal_vision::camera::{CameraModel, DistortionModel};
+use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::image::Image;
-use stereocal_vision::synth::{
-    Background, CharucoMarkers, Chessboard, Coverage, Photometry, PixelFormat, PoseRanges,
-    PoseSampler, Renderer, Shot, corner_truth, synthetic_camera,
-};
+use stereocal_vision::synth::{CharucoMarkers, Chessboard, Coverage, Photometry, corner_truth};
 
 /// Squares of the board (inner corners one fewer).
 const SQUARES_X: usize = 7;
@@ -27,52 +24,21 @@ const SQUARE: f64 = 0.04;
 const MARKER: f64 = 0.03;
 const DICTIONARY: ArucoDictionary = ArucoDictionary::Dict5x5_100;
 
-struct Session {
-    camera: CameraModel,
-    board: Chessboard,
-    renderer: Renderer,
-    poses: Vec<Isometry3<f64>>,
-}
-
 fn synth_board(dictionary: ArucoDictionary) -> Chessboard {
     let markers = CharucoMarkers::new(MARKER, dictionary).unwrap();
     Chessboard::charuco(SQUARES_X - 1, SQUARES_Y - 1, SQUARE, SQUARE, markers).unwrap()
 }
 
-fn session(seed: u64, board: Chessboard, coverage: Coverage, views: usize) -> Session {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let camera = synthetic_camera(DistortionModel::PlumbBob, 1280, 720, &mut rng);
-    let renderer = Renderer::new(
-        camera.clone(),
+fn session(seed: u64, board: Chessboard, coverage: Coverage, views: usize) -> Scene {
+    Scene::new(
+        seed,
+        DistortionModel::PlumbBob,
+        1280,
+        720,
         board,
-        Arc::new(Background::new(seed)),
-        UnitQuaternion::identity(),
-    );
-    let sampler = PoseSampler::new(
-        vec![(&camera, Isometry3::identity())],
-        board,
-        PoseRanges::default(),
-    );
-    let poses = (0..views)
-        .map(|index| sampler.sample(&mut rng, index, coverage).unwrap())
-        .collect();
-    Session {
-        camera,
-        board,
-        renderer,
-        poses,
-    }
-}
-
-fn render(session: &Session, pose: &Isometry3<f64>, photometry: Photometry, seed: u64) -> Image {
-    session.renderer.render(&Shot {
-        camera_from_target: *pose,
-        motion_to: None,
-        photometry,
-        supersampling: 8,
-        format: PixelFormat::Mono8,
-        noise_seed: seed,
-    })
+        coverage,
+        views,
+    )
 }
 
 fn target(dictionary: ArucoDictionary) -> board::Charuco {
@@ -91,7 +57,7 @@ fn detector() -> CharucoDetector {
 
 /// Per detected corner, its distance from the truth; asserts the ids are ascending
 /// and every one is a corner the camera sees.
-fn errors(session: &Session, pose: &Isometry3<f64>, detection: &board::Detection) -> Vec<f64> {
+fn errors(session: &Scene, pose: &Isometry3<f64>, detection: &board::Detection) -> Vec<f64> {
     let truth = corner_truth(&session.camera, &session.board, pose);
     assert!(
         detection.ids.windows(2).all(|w| w[0] < w[1]),
@@ -113,7 +79,7 @@ fn errors(session: &Session, pose: &Isometry3<f64>, detection: &board::Detection
 
 /// Ids of the corners whose two marker squares are in the image: the corners a
 /// ChArUco detector can be asked for (one square's side from every image border).
-fn well_inside(session: &Session, pose: &Isometry3<f64>, image: &Image) -> Vec<usize> {
+fn well_inside(session: &Scene, pose: &Isometry3<f64>, image: &Image) -> Vec<usize> {
     let truth = corner_truth(&session.camera, &session.board, pose);
     let cols = SQUARES_X - 1;
     let pixel = |id: usize| truth[id].pixel.map(|[x, y]| Point2::new(x, y));
@@ -149,7 +115,7 @@ fn clean_frames_give_the_corners_with_their_ids_within_three_hundredths_median()
     let detector = detector();
     let mut all = Vec::new();
     for (index, pose) in session.poses.iter().enumerate() {
-        let image = render(&session, pose, Photometry::ideal(), index as u64);
+        let image = session.render(pose, Photometry::ideal(), index as u64);
         let detection = detector
             .detect(&image)
             .unwrap()
@@ -180,7 +146,7 @@ fn partly_visible_boards_give_the_visible_corners_with_their_ids() {
     let detector = detector();
     let mut detected = 0;
     for (index, pose) in session.poses.iter().enumerate() {
-        let image = render(&session, pose, Photometry::realistic(), 50 + index as u64);
+        let image = session.render(pose, Photometry::realistic(), 50 + index as u64);
         let inside = well_inside(&session, pose, &image);
         let rows: BTreeSet<usize> = inside.iter().map(|id| id / (SQUARES_X - 1)).collect();
         let cols: BTreeSet<usize> = inside.iter().map(|id| id % (SQUARES_X - 1)).collect();
@@ -230,7 +196,7 @@ fn blurred_noisy_unevenly_lit_frames_are_detected() {
     };
     for (index, pose) in session.poses.iter().enumerate() {
         for (what, photometry) in [("realistic", Photometry::realistic()), ("hard", hard)] {
-            let image = render(&session, pose, photometry, 100 + index as u64);
+            let image = session.render(pose, photometry, 100 + index as u64);
             let detection = detector
                 .detect(&image)
                 .unwrap()
@@ -254,15 +220,20 @@ fn blurred_noisy_unevenly_lit_frames_are_detected() {
     }
 }
 
+/// Asserts the ChArUco detector finds nothing in any realistic view of `session`.
+fn assert_never_detected(session: &Scene) {
+    let detector = detector();
+    for (index, pose) in session.poses.iter().enumerate() {
+        let image = session.render(pose, Photometry::realistic(), index as u64);
+        assert_eq!(detector.detect(&image).unwrap(), None, "view {index}");
+    }
+}
+
 #[test]
 fn a_chessboard_is_not_a_charuco_board() {
     let chessboard = Chessboard::new(SQUARES_X - 1, SQUARES_Y - 1, SQUARE, SQUARE).unwrap();
     let session = session(24, chessboard, Coverage::Full, 3);
-    let detector = detector();
-    for (index, pose) in session.poses.iter().enumerate() {
-        let image = render(&session, pose, Photometry::realistic(), index as u64);
-        assert_eq!(detector.detect(&image).unwrap(), None, "view {index}");
-    }
+    assert_never_detected(&session);
 }
 
 #[test]
@@ -273,11 +244,7 @@ fn a_board_from_another_dictionary_is_not_found() {
         Coverage::Full,
         3,
     );
-    let detector = detector();
-    for (index, pose) in session.poses.iter().enumerate() {
-        let image = render(&session, pose, Photometry::realistic(), index as u64);
-        assert_eq!(detector.detect(&image).unwrap(), None, "view {index}");
-    }
+    assert_never_detected(&session);
 }
 
 #[test]

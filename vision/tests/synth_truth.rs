@@ -2,48 +2,27 @@
 //! saddle-point fit on noise-free, highly supersampled renders lies within 0.02 px of
 //! its true projection, for all three lens models and several poses.
 
-use std::sync::Arc;
+mod common;
 
-use nalgebra::{Isometry3, Point2, UnitQuaternion, Vector2};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
+use common::render::Scene;
+use nalgebra::{Point2, Vector2};
 use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::synth::{
-    Background, Chessboard, Coverage, Photometry, PixelFormat, PoseRanges, PoseSampler, Renderer,
-    SaddleFit, Shot, corner_truth, saddle_point, saddle_point_through_lens, synthetic_camera,
+    Chessboard, Coverage, Photometry, SaddleFit, corner_truth, saddle_point,
+    saddle_point_through_lens,
 };
 
 /// Corner errors (pixels) over `poses` poses of one camera of `model`, measured by
 /// the saddle-point fit in the image (which assumes straight edges through the corner)
 /// and by the fit in the corner's locally rectified frame, on the same renders.
 fn corner_errors(model: DistortionModel, seed: u64, poses: usize) -> (Vec<f64>, Vec<f64>) {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let camera = synthetic_camera(model, 800, 600, &mut rng);
     let board = Chessboard::new(8, 6, 0.04, 0.04).unwrap();
-    let renderer = Renderer::new(
-        camera.clone(),
-        board,
-        Arc::new(Background::new(seed)),
-        UnitQuaternion::identity(),
-    );
-    let sampler = PoseSampler::new(
-        vec![(&camera, Isometry3::identity())],
-        board,
-        PoseRanges::default(),
-    );
+    let scene = Scene::new(seed, model, 800, 600, board, Coverage::Full, poses);
     let fit = SaddleFit::default();
     let (mut in_image, mut through_lens) = (Vec::new(), Vec::new());
-    for index in 0..poses {
-        let pose = sampler.sample(&mut rng, index, Coverage::Full).unwrap();
-        let image = renderer.render(&Shot {
-            camera_from_target: pose,
-            motion_to: None,
-            photometry: Photometry::ideal(),
-            supersampling: 16,
-            format: PixelFormat::Mono8,
-            noise_seed: 0,
-        });
-        for corner in corner_truth(&camera, &board, &pose) {
+    for pose in &scene.poses {
+        let image = scene.render_supersampled(pose, Photometry::ideal(), 16, 0);
+        for corner in corner_truth(&scene.camera, &scene.board, pose) {
             let [x, y] = corner.pixel.unwrap();
             assert!(corner.visible);
             let truth = Point2::new(x, y);
@@ -52,8 +31,8 @@ fn corner_errors(model: DistortionModel, seed: u64, poses: usize) -> (Vec<f64>, 
             let no_saddle = || panic!("{model:?}: no saddle near {truth}");
             let found = saddle_point(&image, &start, &fit).unwrap_or_else(no_saddle);
             in_image.push((found - truth).norm());
-            let found =
-                saddle_point_through_lens(&image, &camera, &start, &fit).unwrap_or_else(no_saddle);
+            let found = saddle_point_through_lens(&image, &scene.camera, &start, &fit)
+                .unwrap_or_else(no_saddle);
             through_lens.push((found - truth).norm());
         }
     }
