@@ -28,8 +28,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from rosbags.rosbag2 import Reader
-from rosbags.typesys import Stores, get_typestore
+from bag_images import grey_images
 
 REPO = Path(__file__).resolve().parent.parent
 TOPICS = ("/stereo/left/image_raw", "/stereo/right/image_raw")
@@ -42,18 +41,9 @@ def default_binary():
 
 def read_images(bag):
     """{topic: {(sec, nanosec): grey image}}."""
-    ts = get_typestore(Stores.ROS2_HUMBLE)
     images = {t: {} for t in TOPICS}
-    with Reader(bag) as reader:
-        connections = [c for c in reader.connections if c.topic in TOPICS]
-        for connection, _, raw in reader.messages(connections=connections):
-            msg = ts.deserialize_cdr(raw, connection.msgtype)
-            img = np.frombuffer(msg.data, dtype=np.uint8).reshape(msg.height, msg.step)
-            img = img[:, : msg.width * (3 if msg.encoding == "rgb8" else 1)]
-            if msg.encoding == "rgb8":
-                img = cv2.cvtColor(img.reshape(msg.height, msg.width, 3), cv2.COLOR_RGB2GRAY)
-            stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec)
-            images[connection.topic][stamp] = np.ascontiguousarray(img)
+    for topic, stamp, img in grey_images(bag, TOPICS):
+        images[topic][stamp] = img
     return images
 
 

@@ -28,8 +28,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from rosbags.rosbag2 import Reader
-from rosbags.typesys import Stores, get_typestore
+from bag_images import grey_images
 
 REPO = Path(__file__).resolve().parent.parent
 TOPICS = {"/stereo/left/image_raw": "left", "/stereo/right/image_raw": "right"}
@@ -38,23 +37,6 @@ TOPICS = {"/stereo/left/image_raw": "left", "/stereo/right/image_raw": "right"}
 def built(path):
     release = REPO / "target" / "release" / path
     return release if release.exists() else REPO / "target" / "debug" / path
-
-
-def read_images(bag):
-    """{(camera, (sec, nanosec)): grey image}."""
-    ts = get_typestore(Stores.ROS2_HUMBLE)
-    images = {}
-    with Reader(bag) as reader:
-        connections = [c for c in reader.connections if c.topic in TOPICS]
-        for connection, _, raw in reader.messages(connections=connections):
-            msg = ts.deserialize_cdr(raw, connection.msgtype)
-            img = np.frombuffer(msg.data, dtype=np.uint8).reshape(msg.height, msg.step)
-            img = img[:, : msg.width * (3 if msg.encoding == "rgb8" else 1)]
-            if msg.encoding == "rgb8":
-                img = cv2.cvtColor(img.reshape(msg.height, msg.width, 3), cv2.COLOR_RGB2GRAY)
-            stamp = (msg.header.stamp.sec, msg.header.stamp.nanosec)
-            images[(TOPICS[connection.topic], stamp)] = np.ascontiguousarray(img)
-    return images
 
 
 def read_board(path):
@@ -139,7 +121,10 @@ def main():
             check=True,
         )
         truth = json.loads((tmp / "scene" / "ground_truth.json").read_text())
-        images = read_images(tmp / "scene" / "bag")
+        images = {
+            (TOPICS[topic], stamp): img
+            for topic, stamp, img in grey_images(tmp / "scene" / "bag", TOPICS)
+        }
         paths = {}
         for (camera, stamp), img in images.items():
             path = tmp / f"{camera}_{stamp[0]}_{stamp[1]:09d}.png"
