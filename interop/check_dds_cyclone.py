@@ -2,8 +2,8 @@
 
 Starts the rectify_node binary on its own ROS domain, publishes sensor_msgs/Image and
 sensor_msgs/CameraInfo on `rt/cam/image_raw` and `rt/cam/camera_info` with Cyclone
-DDS's Python binding (IDL types of interop/ros2_cyclone.py, with ROS 2's DDS type names, such as
-`sensor_msgs::msg::dds_::Image_`, and plain CDR as ROS 2 uses), receives
+DDS's Python binding (the IDL types of interop/ros2_cyclone.py, with ROS 2's DDS type
+names such as `sensor_msgs::msg::dds_::Image_`, and plain CDR as ROS 2 uses), receives
 `rt/cam/image_rect` the same way, and checks every frame: type, header, encoding, size,
 and pixels against OpenCV's initUndistortRectifyMap + remap (bilinear) within 1 grey
 level. Ends the node with SIGTERM and checks that it exits cleanly. Exits non-zero on
