@@ -3,11 +3,9 @@
 
 use std::fmt::Write;
 
-use plotters::prelude::*;
-
 use super::ReportError;
 use super::html::camera_figure;
-use super::svg::{PlotMap, chart_error, heat, inline, rect};
+use super::svg::{heat, image_chart, inline, rect};
 use super::views::CameraViews;
 
 /// Cells across the image; rows follow the image's aspect ratio.
@@ -60,36 +58,10 @@ impl CoverageGrid {
 /// The coverage heat-map of one camera, as an HTML figure; each cell is a `rect` of
 /// class `coverage-cell` with its count in `data-count`.
 pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
-    let error = chart_error("coverage");
     let grid = CoverageGrid::new(camera);
     let model = camera.camera();
     let (width, height) = (f64::from(model.width), f64::from(model.height));
-    let x_range = -0.5..width - 0.5;
-    let y_range = height - 0.5..-0.5;
-    let plot_height = (f64::from(WIDTH - 70) * height / width).round() as u32 + 60;
-    let mut document = String::new();
-    let map;
-    {
-        let root = SVGBackend::with_string(&mut document, (WIDTH, plot_height)).into_drawing_area();
-        root.fill(&WHITE).map_err(&error)?;
-        let mut chart = ChartBuilder::on(&root)
-            .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(52)
-            .build_cartesian_2d(x_range.clone(), y_range.clone())
-            .map_err(&error)?;
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_label_formatter(&|y| format!("{y:.0}"))
-            .x_desc("x (px)")
-            .y_desc("y (px)")
-            .draw()
-            .map_err(&error)?;
-        map = PlotMap::new(x_range, y_range, chart.plotting_area().get_pixel_range());
-        root.present().map_err(&error)?;
-    }
+    let (document, map) = image_chart("coverage", WIDTH, (width, height))?;
     let most = grid.counts.iter().copied().max().unwrap_or(0).max(1);
     let total: usize = grid.counts.iter().sum();
     let empty = grid.counts.iter().filter(|&&c| c == 0).count();

@@ -5,12 +5,11 @@
 use std::fmt::Write;
 
 use nalgebra::{Point2, Vector2};
-use plotters::prelude::*;
 use stereocal_vision::camera::CameraModel;
 
 use super::ReportError;
 use super::html::camera_figure;
-use super::svg::{PlotMap, chart_error, heat, inline, rect};
+use super::svg::{heat, image_chart, inline, rect};
 use super::views::CameraViews;
 
 /// Arrows across the image, the first and last on the image's border columns.
@@ -38,7 +37,6 @@ fn positions(last: f64, count: usize) -> impl Iterator<Item = f64> {
 /// sampled in `data-largest-displacement` (pixels; the samples include the four image
 /// corners).
 pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
-    let error = chart_error("distortion field");
     let model = camera.camera();
     let (width, height) = (f64::from(model.width), f64::from(model.height));
     let arrow_rows = ((ARROW_COLUMNS as f64 - 1.0) * height / width).round() as usize + 1;
@@ -67,32 +65,7 @@ pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
     let shade_max = shades.iter().filter_map(|s| s.2).fold(0.0, f64::max);
     let scale_max = largest.map_or(0.0, |(_, m)| m).max(shade_max);
 
-    let x_range = -0.5..width - 0.5;
-    let y_range = height - 0.5..-0.5;
-    let plot_height = (f64::from(WIDTH - 70) * height / width).round() as u32 + 60;
-    let mut document = String::new();
-    let map;
-    {
-        let root = SVGBackend::with_string(&mut document, (WIDTH, plot_height)).into_drawing_area();
-        root.fill(&WHITE).map_err(&error)?;
-        let mut chart = ChartBuilder::on(&root)
-            .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(52)
-            .build_cartesian_2d(x_range.clone(), y_range.clone())
-            .map_err(&error)?;
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_label_formatter(&|x| format!("{x:.0}"))
-            .y_label_formatter(&|y| format!("{y:.0}"))
-            .x_desc("x (px)")
-            .y_desc("y (px)")
-            .draw()
-            .map_err(&error)?;
-        map = PlotMap::new(x_range, y_range, chart.plotting_area().get_pixel_range());
-        root.present().map_err(&error)?;
-    }
+    let (document, map) = image_chart("distortion field", WIDTH, (width, height))?;
 
     let mut marks = String::new();
     for (x0, y0, magnitude) in &shades {

@@ -3,11 +3,9 @@
 
 use std::fmt::Write;
 
-use plotters::prelude::*;
-
 use super::ReportError;
 use super::html::camera_figure;
-use super::svg::{PlotMap, chart_error, inline, rect};
+use super::svg::{draw_chart, inline, rect};
 use super::views::{CameraViews, FrameUse, stamp_text};
 
 const SIZE: (u32, u32) = (640, 300);
@@ -21,7 +19,6 @@ const CLIP_RATIO: f64 = 3.0;
 /// bar: class `view-bar used` (height: the view's RMS) or `view-bar rejected` (height:
 /// its RMS when the solver measured one, otherwise a pale band over the whole height).
 pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
-    let error = chart_error("per-view error");
     let frames = &camera.frames;
     let used_max = frames
         .iter()
@@ -43,17 +40,7 @@ pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
         rejected_max.max(1.0)
     } * 1.15;
     let x_range = -0.5..frames.len().max(1) as f64 - 0.5;
-    let mut document = String::new();
-    let map;
-    {
-        let root = SVGBackend::with_string(&mut document, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(&error)?;
-        let mut chart = ChartBuilder::on(&root)
-            .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(52)
-            .build_cartesian_2d(x_range.clone(), 0.0..top)
-            .map_err(&error)?;
+    let (document, map) = draw_chart("per-view error", SIZE, x_range, 0.0..top, |chart| {
         chart
             .configure_mesh()
             .disable_x_mesh()
@@ -70,10 +57,7 @@ pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
             .x_desc("frame (stamp order)")
             .y_desc("RMS (px)")
             .draw()
-            .map_err(&error)?;
-        map = PlotMap::new(x_range, 0.0..top, chart.plotting_area().get_pixel_range());
-        root.present().map_err(&error)?;
-    }
+    })?;
     let mut marks = String::new();
     for (i, frame) in frames.iter().enumerate() {
         let x0 = map.x(i as f64 - 0.38);

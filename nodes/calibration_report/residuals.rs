@@ -7,7 +7,7 @@ use plotters::prelude::*;
 
 use super::ReportError;
 use super::html::camera_figure;
-use super::svg::{PlotMap, chart_error, inline};
+use super::svg::{draw_chart, inline};
 use super::views::CameraViews;
 
 const SIZE: (u32, u32) = (440, 420);
@@ -15,7 +15,6 @@ const SIZE: (u32, u32) = (440, 420);
 /// The residual scatter of one camera, as an HTML figure. The y axis points down, as
 /// image rows do.
 pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
-    let error = chart_error("residual scatter");
     let views: Vec<_> = camera.used().map(|(_, residuals)| residuals).collect();
     let largest = views
         .iter()
@@ -25,44 +24,32 @@ pub(crate) fn chart(camera: &CameraViews) -> Result<String, ReportError> {
         .fold(0.0, f64::max);
     let half = if largest > 0.0 { largest * 1.1 } else { 1.0 };
     let corners: usize = views.iter().map(|r| r.len()).sum();
-    let mut document = String::new();
-    let map;
-    {
-        let root = SVGBackend::with_string(&mut document, SIZE).into_drawing_area();
-        root.fill(&WHITE).map_err(&error)?;
-        let mut chart = ChartBuilder::on(&root)
-            .margin(12)
-            .x_label_area_size(36)
-            .y_label_area_size(52)
-            .build_cartesian_2d(-half..half, half..-half)
-            .map_err(&error)?;
-        chart
-            .configure_mesh()
-            .max_light_lines(1)
-            .x_label_formatter(&|x| format!("{x:.2}"))
-            .y_label_formatter(&|y| format!("{y:.2}"))
-            .x_desc("dx (px)")
-            .y_desc("dy (px)")
-            .draw()
-            .map_err(&error)?;
-        let count = views.len().max(1) as f64;
-        for (k, residuals) in views.iter().enumerate() {
-            let colour = HSLColor(k as f64 / count, 0.75, 0.42);
+    let (document, map) = draw_chart(
+        "residual scatter",
+        SIZE,
+        -half..half,
+        half..-half,
+        |chart| {
             chart
-                .draw_series(
+                .configure_mesh()
+                .max_light_lines(1)
+                .x_label_formatter(&|x| format!("{x:.2}"))
+                .y_label_formatter(&|y| format!("{y:.2}"))
+                .x_desc("dx (px)")
+                .y_desc("dy (px)")
+                .draw()?;
+            let count = views.len().max(1) as f64;
+            for (k, residuals) in views.iter().enumerate() {
+                let colour = HSLColor(k as f64 / count, 0.75, 0.42);
+                chart.draw_series(
                     residuals
                         .iter()
                         .map(|r| Circle::new((r.x, r.y), 2, colour.mix(0.7).filled())),
-                )
-                .map_err(&error)?;
-        }
-        map = PlotMap::new(
-            -half..half,
-            half..-half,
-            chart.plotting_area().get_pixel_range(),
-        );
-        root.present().map_err(&error)?;
-    }
+                )?;
+            }
+            Ok(())
+        },
+    )?;
     let rms = camera.result.calibration.rms;
     let mut marks = String::new();
     let _ = write!(

@@ -4,10 +4,78 @@
 use std::fmt::{Display, Write};
 use std::ops::Range;
 
+use plotters::coord::types::RangedCoordf64;
+use plotters::prelude::*;
+
 use super::ReportError;
 
+/// A plotters chart with `f64` axes drawn into an SVG string.
+pub(crate) type SvgChart<'a, 'b> =
+    ChartContext<'a, SVGBackend<'b>, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// The plotters error of drawing into an SVG string.
+pub(crate) type SvgError = DrawingAreaErrorKind<std::io::Error>;
+
+/// Draws the frame of a chart of `size` SVG pixels on white: margins and label areas
+/// the same for every chart of the report, data ranges `x` and `y` (either may run
+/// backwards), then `draw` configures the mesh and draws any plotters series. Returns
+/// plotters' SVG document and the map from data to its plotting area; errors name
+/// `name`.
+pub(crate) fn draw_chart(
+    name: &'static str,
+    size: (u32, u32),
+    x: Range<f64>,
+    y: Range<f64>,
+    draw: impl FnOnce(&mut SvgChart<'_, '_>) -> Result<(), SvgError>,
+) -> Result<(String, PlotMap), ReportError> {
+    let error = chart_error(name);
+    let mut document = String::new();
+    let map;
+    {
+        let root = SVGBackend::with_string(&mut document, size).into_drawing_area();
+        root.fill(&WHITE).map_err(&error)?;
+        let mut chart = ChartBuilder::on(&root)
+            .margin(12)
+            .x_label_area_size(36)
+            .y_label_area_size(52)
+            .build_cartesian_2d(x.clone(), y.clone())
+            .map_err(&error)?;
+        draw(&mut chart).map_err(&error)?;
+        map = PlotMap::new(x, y, chart.plotting_area().get_pixel_range());
+        root.present().map_err(&error)?;
+    }
+    Ok((document, map))
+}
+
+/// A chart over an image of `width` x `height` pixels, `chart_width` SVG pixels wide:
+/// pixel axes without grid lines, the image's edges at `-0.5` and `size - 0.5` (pixel
+/// centres at integer coordinates), rows downwards.
+pub(crate) fn image_chart(
+    name: &'static str,
+    chart_width: u32,
+    (width, height): (f64, f64),
+) -> Result<(String, PlotMap), ReportError> {
+    let plot_height = (f64::from(chart_width - 70) * height / width).round() as u32 + 60;
+    draw_chart(
+        name,
+        (chart_width, plot_height),
+        -0.5..width - 0.5,
+        height - 0.5..-0.5,
+        |chart| {
+            chart
+                .configure_mesh()
+                .disable_mesh()
+                .x_label_formatter(&|x| format!("{x:.0}"))
+                .y_label_formatter(&|y| format!("{y:.0}"))
+                .x_desc("x (px)")
+                .y_desc("y (px)")
+                .draw()
+        },
+    )
+}
+
 /// Maps plotters errors of `chart` to [`ReportError::Chart`].
-pub(crate) fn chart_error<E: Display>(chart: &'static str) -> impl Fn(E) -> ReportError {
+fn chart_error<E: Display>(chart: &'static str) -> impl Fn(E) -> ReportError {
     move |e| ReportError::Chart {
         chart,
         message: e.to_string(),
