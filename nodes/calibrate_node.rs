@@ -38,7 +38,7 @@ use stereocal_msgs::sensor_msgs::Image;
 use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
 use stereocal_msgs::std_msgs;
 use stereocal_msgs::std_srvs::srv::{TriggerRequest, TriggerResponse};
-use stereocal_vision::board::{ArucoDictionary, Charuco, Chessboard, Target, parse_size};
+use stereocal_vision::board::{Target, TargetPart, parse_size, target_from_parts};
 use stereocal_vision::camera::DistortionModel;
 
 use crate::calibration_session::{
@@ -191,50 +191,24 @@ fn target_from_params(node: &RosNode) -> anyhow::Result<Target> {
             "required: the target size as COLSxROWS, e.g. 9x6",
         ));
     }
-    let (cols, rows) = parse_size(&size).map_err(|e| param_error("size", e))?;
-    let square = node.param_f64("square")?;
-    if !(square.is_finite() && square > 0.0) {
-        return Err(param_error(
-            "square",
-            format!("{square} is not a positive side length in metres (required, e.g. 0.025)"),
-        ));
-    }
-    match node.param_string("pattern")?.as_str() {
-        "chessboard" => Chessboard::new(cols, rows, square)
-            .map(Target::Chessboard)
-            .map_err(|e| param_error("size", e)),
-        "charuco" => {
-            let marker_size = node.param_f64("marker_size")?;
-            if !(marker_size.is_finite() && marker_size > 0.0 && marker_size < square) {
-                return Err(param_error(
-                    "marker_size",
-                    format!(
-                        "{marker_size} is not a marker side in metres between 0 and square ({square})"
-                    ),
-                ));
-            }
-            let name = node.param_string("dictionary")?;
-            let dictionary = ArucoDictionary::from_name(&name).ok_or_else(|| {
-                param_error(
-                    "dictionary",
-                    format!("unknown ArUco dictionary {name:?}: expected one of 4x4_50 .. 7x7_1000 or aruco_orig"),
-                )
-            })?;
-            let board = Charuco {
-                squares_x: cols,
-                squares_y: rows,
-                square_size: square,
-                marker_size,
-                dictionary,
-            };
-            board.validate().map_err(|e| param_error("size", e))?;
-            Ok(Target::Charuco(board))
-        }
-        other => Err(param_error(
-            "pattern",
-            format!("unsupported pattern {other:?}: expected chessboard or charuco"),
-        )),
-    }
+    let size = parse_size(&size).map_err(|e| param_error("size", e))?;
+    target_from_parts(
+        &node.param_string("pattern")?,
+        size,
+        node.param_f64("square")?,
+        Some(node.param_f64("marker_size")?),
+        Some(&node.param_string("dictionary")?),
+    )
+    .map_err(|(part, e)| {
+        let name = match part {
+            TargetPart::Pattern => "pattern",
+            TargetPart::Size => "size",
+            TargetPart::Square => "square",
+            TargetPart::MarkerSize => "marker_size",
+            TargetPart::Dictionary => "dictionary",
+        };
+        param_error(name, e)
+    })
 }
 
 fn non_negative(node: &RosNode, name: &str) -> anyhow::Result<f64> {

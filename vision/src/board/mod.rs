@@ -18,7 +18,9 @@ pub use charuco::{CharucoDetector, MIN_CHARUCO_CORNERS};
 pub use chessboard::ChessboardDetector;
 pub use detection::{Detection, TargetDetector};
 pub use gray::Gray;
-pub use pattern_args::{PatternArgs, parse_pattern_args, parse_size};
+pub use pattern_args::{
+    PatternArgs, TargetPart, parse_pattern_args, parse_size, target_from_parts,
+};
 pub use subpixel::{SubpixelWindow, refine_corners};
 pub use target::{ArucoDictionary, Charuco, Chessboard, Target};
 

@@ -64,59 +64,132 @@ impl PatternArgs {
         Ok(parsed)
     }
 
-    /// The target these options describe.
+    /// The target these options describe. An error about one option names it.
     pub fn target(&self) -> Result<Target, BoardError> {
         let size = self
             .size
             .as_deref()
             .ok_or_else(|| BoardError::Args("--size COLSxROWS is required".to_string()))?;
-        let (cols, rows) = parse_size(size)?;
+        let size = parse_size(size)?;
         let square = self
             .square
             .as_deref()
             .ok_or_else(|| BoardError::Args("--square METRES is required".to_string()))
             .and_then(|s| parse_metres("--square", s))?;
-        match self.pattern.as_deref().unwrap_or("chessboard") {
-            "chessboard" => {
-                if self.marker_size.is_some() || self.aruco_dict.is_some() {
-                    return Err(BoardError::Args(
-                        "--charuco_marker_size and --aruco_dict only apply to --pattern charuco"
-                            .to_string(),
-                    ));
-                }
-                Ok(Target::Chessboard(Chessboard::new(cols, rows, square)?))
+        let pattern = self.pattern.as_deref().unwrap_or("chessboard");
+        if pattern == "chessboard" && (self.marker_size.is_some() || self.aruco_dict.is_some()) {
+            return Err(BoardError::Args(
+                "--charuco_marker_size and --aruco_dict only apply to --pattern charuco"
+                    .to_string(),
+            ));
+        }
+        let marker_size = self
+            .marker_size
+            .as_deref()
+            .map(|s| parse_metres("--charuco_marker_size", s))
+            .transpose()?;
+        target_from_parts(
+            pattern,
+            size,
+            square,
+            marker_size,
+            self.aruco_dict.as_deref(),
+        )
+        .map_err(|(part, e)| BoardError::Args(format!("{}: {e}", option_name(part))))
+    }
+}
+
+/// The part of a target's description that an error of [`target_from_parts`] is
+/// about, for the caller to name as its command-line option or parameter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TargetPart {
+    /// The pattern's name.
+    Pattern,
+    /// The board's size, `(COLS, ROWS)`.
+    Size,
+    /// The square side.
+    Square,
+    /// The ChArUco marker side.
+    MarkerSize,
+    /// The ArUco dictionary's name.
+    Dictionary,
+}
+
+/// The target `pattern` (`chessboard` or `charuco`) describes. `(cols, rows)` counts
+/// inner corners of a chessboard and squares of a ChArUco board (as ROS
+/// camera_calibration does); `square` is the square side in metres. A ChArUco board
+/// also needs `marker_size` (metres, smaller than `square`) and takes `dictionary`
+/// (camera_calibration's default `4x4_50` when `None`); a chessboard ignores both.
+/// An error says which part of the description is wrong.
+pub fn target_from_parts(
+    pattern: &str,
+    (cols, rows): (usize, usize),
+    square: f64,
+    marker_size: Option<f64>,
+    dictionary: Option<&str>,
+) -> Result<Target, (TargetPart, BoardError)> {
+    let wrong = |part, message: String| (part, BoardError::Args(message));
+    if !(square.is_finite() && square > 0.0) {
+        return Err(wrong(
+            TargetPart::Square,
+            format!("{square} is not a positive side length in metres (required, e.g. 0.025)"),
+        ));
+    }
+    match pattern {
+        "chessboard" => Chessboard::new(cols, rows, square)
+            .map(Target::Chessboard)
+            .map_err(|e| (TargetPart::Size, e)),
+        "charuco" => {
+            let marker_size = marker_size.ok_or_else(|| {
+                wrong(
+                    TargetPart::MarkerSize,
+                    "a ChArUco board needs the marker side in metres".to_string(),
+                )
+            })?;
+            if !(marker_size.is_finite() && marker_size > 0.0 && marker_size < square) {
+                return Err(wrong(
+                    TargetPart::MarkerSize,
+                    format!(
+                        "{marker_size} is not a marker side in metres between 0 and square \
+                         ({square})"
+                    ),
+                ));
             }
-            "charuco" => {
-                let marker_size = self
-                    .marker_size
-                    .as_deref()
-                    .ok_or_else(|| {
-                        BoardError::Args(
-                            "--pattern charuco needs --charuco_marker_size METRES".to_string(),
-                        )
-                    })
-                    .and_then(|s| parse_metres("--charuco_marker_size", s))?;
-                let name = self.aruco_dict.as_deref().unwrap_or("4x4_50");
-                let dictionary = ArucoDictionary::from_name(name).ok_or_else(|| {
-                    BoardError::Args(format!(
+            let name = dictionary.unwrap_or("4x4_50");
+            let dictionary = ArucoDictionary::from_name(name).ok_or_else(|| {
+                wrong(
+                    TargetPart::Dictionary,
+                    format!(
                         "unknown ArUco dictionary {name:?}: expected one of 4x4_50 .. 7x7_1000 \
                          or aruco_orig"
-                    ))
-                })?;
-                let board = Charuco {
-                    squares_x: cols,
-                    squares_y: rows,
-                    square_size: square,
-                    marker_size,
-                    dictionary,
-                };
-                board.validate()?;
-                Ok(Target::Charuco(board))
-            }
-            other => Err(BoardError::Args(format!(
-                "unsupported pattern {other:?}: expected chessboard or charuco"
-            ))),
+                    ),
+                )
+            })?;
+            let board = Charuco {
+                squares_x: cols,
+                squares_y: rows,
+                square_size: square,
+                marker_size,
+                dictionary,
+            };
+            board.validate().map_err(|e| (TargetPart::Size, e))?;
+            Ok(Target::Charuco(board))
         }
+        other => Err(wrong(
+            TargetPart::Pattern,
+            format!("unsupported pattern {other:?}: expected chessboard or charuco"),
+        )),
+    }
+}
+
+/// The command-line option that sets `part`.
+fn option_name(part: TargetPart) -> &'static str {
+    match part {
+        TargetPart::Pattern => "--pattern",
+        TargetPart::Size => "--size",
+        TargetPart::Square => "--square",
+        TargetPart::MarkerSize => "--charuco_marker_size",
+        TargetPart::Dictionary => "--aruco_dict",
     }
 }
 
@@ -218,5 +291,55 @@ mod tests {
             let error = parse_pattern_args(&args).unwrap_err().to_string();
             assert!(error.contains(needle), "{args:?}: {error}");
         }
+    }
+
+    #[test]
+    fn target_errors_name_the_wrong_part() {
+        for (pattern, size, square, marker, dictionary, part) in [
+            ("circles", (9, 6), 0.02, None, None, TargetPart::Pattern),
+            ("chessboard", (1, 6), 0.02, None, None, TargetPart::Size),
+            ("charuco", (2, 5), 0.04, Some(0.03), None, TargetPart::Size),
+            ("chessboard", (9, 6), -1.0, None, None, TargetPart::Square),
+            (
+                "charuco",
+                (7, 5),
+                f64::NAN,
+                Some(0.03),
+                None,
+                TargetPart::Square,
+            ),
+            ("charuco", (7, 5), 0.04, None, None, TargetPart::MarkerSize),
+            (
+                "charuco",
+                (7, 5),
+                0.04,
+                Some(0.04),
+                None,
+                TargetPart::MarkerSize,
+            ),
+            (
+                "charuco",
+                (7, 5),
+                0.04,
+                Some(0.03),
+                Some("9x9_1"),
+                TargetPart::Dictionary,
+            ),
+        ] {
+            let result = target_from_parts(pattern, size, square, marker, dictionary);
+            assert_eq!(
+                result.map_err(|(part, _)| part),
+                Err(part),
+                "{pattern} {size:?} {square} {marker:?} {dictionary:?}"
+            );
+        }
+        assert_eq!(
+            target_from_parts("chessboard", (9, 6), 0.025, Some(0.5), Some("bad")),
+            Ok(Target::Chessboard(Chessboard::new(9, 6, 0.025).unwrap()))
+        );
+        let error = parse_pattern_args(["--pattern=charuco", "-s", "7x5", "-q", "0.04"])
+            .unwrap_err()
+            .to_string();
+        assert!(error.starts_with("--charuco_marker_size: "), "{error}");
     }
 }
