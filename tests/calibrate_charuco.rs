@@ -4,14 +4,15 @@
 //! frames, about one in ten bad, one of them partly out of view): intrinsics and
 //! `right_from_left` against ground truth.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 
 use indicatif::ProgressBar;
 use stereocal::cli::calibrate::{CalibrateArgs, CharucoArgs, calibrate_bag};
-use stereocal::cli::synth::{ModelArg, SceneArg, SynthArgs, run_with_target};
 use stereocal_vision::board::Target;
 use stereocal_vision::camera::DistortionModel;
-use stereocal_vision::synth::{FrameKind, GroundTruth};
+use stereocal_vision::synth::FrameKind;
 
 fn board_file() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("config/boards/charuco_10x7_40mm.yaml")
@@ -24,24 +25,8 @@ fn charuco_stereo_session_matches_ground_truth() {
         panic!("not a ChArUco board: {target:?}");
     };
     let dir = tempfile::tempdir().unwrap();
-    run_with_target(
-        &SynthArgs {
-            scene: SceneArg::Calibration,
-            out: dir.path().to_path_buf(),
-            seed: 1,
-            frames: Some(25),
-            width: 1024,
-            height: 768,
-            model: ModelArg::PlumbBob,
-            bad_frames: None,
-            rgb: false,
-            vertical: false,
-        },
-        Some(&target),
-    )
-    .unwrap();
-    let text = std::fs::read_to_string(dir.path().join("ground_truth.json")).unwrap();
-    let truth: GroundTruth = serde_json::from_str(&text).unwrap();
+    let truth =
+        common::synthesize_session(&common::calibration_scene(dir.path(), 1, 25), Some(&target));
     assert!(
         truth.board.markers.is_some(),
         "ground truth without markers"
@@ -74,48 +59,6 @@ fn charuco_stereo_session_matches_ground_truth() {
     .unwrap();
     let outcome = &report.outcome;
     assert_eq!(outcome.cameras.len(), 2);
-    for (camera, record) in outcome.cameras.iter().zip(&truth.cameras) {
-        assert_eq!(camera.name, record.name);
-        let expected = record.camera_model().unwrap().intrinsics;
-        let got = camera.calibration.camera.intrinsics;
-        for (what, got, expected) in [
-            ("fx", got.fx, expected.fx),
-            ("fy", got.fy, expected.fy),
-            ("cx", got.cx, expected.cx),
-            ("cy", got.cy, expected.cy),
-        ] {
-            println!("{} {what}: {got:.4} against {expected:.4}", camera.name);
-            assert!(
-                (got - expected).abs() < 0.2,
-                "{} {what}: {got:.4} against {expected:.4}",
-                camera.name
-            );
-        }
-    }
-
-    let stereo = outcome.stereo.as_ref().unwrap();
-    let expected = truth
-        .extrinsics
-        .right_from_left
-        .as_ref()
-        .unwrap()
-        .isometry();
-    let got = stereo.calibration.right_from_left;
-    let angle = (got.rotation * expected.rotation.inverse())
-        .angle()
-        .to_degrees();
-    let offset = (got.translation.vector - expected.translation.vector).norm();
-    println!(
-        "right_from_left: {angle:.4} degrees, {:.4} mm off; {} pairs used",
-        offset * 1e3,
-        stereo.used.len()
-    );
-    assert!(
-        angle < 0.05,
-        "right_from_left rotation off by {angle} degrees"
-    );
-    assert!(
-        offset < 0.3e-3,
-        "right_from_left translation off by {offset} m"
-    );
+    common::assert_intrinsics_near_truth(&outcome.cameras, &truth);
+    common::assert_right_from_left_near_truth(outcome.stereo.as_ref().unwrap(), &truth);
 }

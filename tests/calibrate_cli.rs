@@ -4,6 +4,8 @@
 //! camera; warnings on a calibration that should not be trusted; and clear errors for a
 //! missing topic, a wrong board size and too few views.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -13,7 +15,6 @@ use stereocal::calibration_stage::{
     CalibrationStageError, CameraFrames, Frame, FrameCorners, calibrate_camera,
 };
 use stereocal::cli::calibrate::{CalibrateArgs, calibrate_bag, report_json};
-use stereocal::cli::synth::{ModelArg, SceneArg, SynthArgs};
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
 use stereocal_vision::calib::{CalibError, View};
@@ -22,21 +23,7 @@ use stereocal_vision::synth::{FrameKind, GroundTruth};
 
 /// Synthesizes a calibration session of `frames` frames into `dir`.
 fn synthesize(dir: &Path, frames: usize) -> GroundTruth {
-    stereocal::cli::synth::run(&SynthArgs {
-        scene: SceneArg::Calibration,
-        out: dir.to_path_buf(),
-        seed: 1,
-        frames: Some(frames),
-        width: 1024,
-        height: 768,
-        model: ModelArg::PlumbBob,
-        bad_frames: None,
-        rgb: false,
-        vertical: false,
-    })
-    .unwrap();
-    let text = std::fs::read_to_string(dir.join("ground_truth.json")).unwrap();
-    serde_json::from_str(&text).unwrap()
+    common::synthesize_session(&common::calibration_scene(dir, 1, frames), None)
 }
 
 fn args(bag: PathBuf, out: PathBuf, truth: &GroundTruth) -> CalibrateArgs {
@@ -81,22 +68,8 @@ fn stereo_session_matches_ground_truth_and_reports_bad_frames() {
         Vec::<String>::new()
     );
 
-    for (camera, record) in outcome.cameras.iter().zip(&truth.cameras) {
-        assert_eq!(camera.name, record.name);
-        let expected = record.camera_model().unwrap().intrinsics;
-        let got = camera.calibration.camera.intrinsics;
-        for (what, got, expected) in [
-            ("fx", got.fx, expected.fx),
-            ("fy", got.fy, expected.fy),
-            ("cx", got.cx, expected.cx),
-            ("cy", got.cy, expected.cy),
-        ] {
-            assert!(
-                (got - expected).abs() < 0.2,
-                "{} {what}: {got:.4} against {expected:.4}",
-                camera.name
-            );
-        }
+    common::assert_intrinsics_near_truth(&outcome.cameras, &truth);
+    for camera in &outcome.cameras {
         // The YAML written reads back with the calibration and the rectification.
         let file = CameraInfoFile::read(out.join(format!("{}.yaml", camera.name))).unwrap();
         assert_eq!(file.camera_name, camera.name);
@@ -109,25 +82,8 @@ fn stereo_session_matches_ground_truth_and_reports_bad_frames() {
     }
 
     let stereo = outcome.stereo.as_ref().unwrap();
-    let expected = truth
-        .extrinsics
-        .right_from_left
-        .as_ref()
-        .unwrap()
-        .isometry();
+    common::assert_right_from_left_near_truth(stereo, &truth);
     let got = stereo.calibration.right_from_left;
-    let angle = (got.rotation * expected.rotation.inverse())
-        .angle()
-        .to_degrees();
-    let offset = (got.translation.vector - expected.translation.vector).norm();
-    assert!(
-        angle < 0.05,
-        "right_from_left rotation off by {angle} degrees"
-    );
-    assert!(
-        offset < 0.3e-3,
-        "right_from_left translation off by {offset} m"
-    );
 
     // Every bad frame is left out of the stereo solve and reported by a camera.
     let bad: Vec<_> = truth
@@ -220,6 +176,7 @@ fn stereo_session_matches_ground_truth_and_reports_bad_frames() {
     let x = stereo["right_from_left"]["translation"][0]
         .as_f64()
         .unwrap();
+    let expected = common::true_right_from_left(&truth);
     assert!((x - expected.translation.vector.x).abs() < 0.3e-3);
     assert!(json_out.join("left.yaml").is_file() && json_out.join("stereo.yaml").is_file());
 }

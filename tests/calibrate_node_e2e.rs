@@ -7,6 +7,8 @@
 //! after `~/reset`), the restarted node pairing frames whose stamps differ within its
 //! `slop`; a third calibrates the left camera alone with `auto_calibrate`.
 
+mod common;
+
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -19,7 +21,6 @@ use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, Subscription,
 };
 use stereocal::bag::{BagReader, TopicFilter};
-use stereocal::cli::synth::{ModelArg, SceneArg, SynthArgs};
 use stereocal::runtime::qos;
 use stereocal::runtime::service::{
     ServiceClient, Srv, call, create_client, create_server, wait_for_server,
@@ -77,21 +78,8 @@ fn long_session() -> &'static Session {
 
 fn synthesize(seed: u64, frames: usize) -> Session {
     let dir = tempfile::tempdir().expect("temp dir");
-    stereocal::cli::synth::run(&SynthArgs {
-        scene: SceneArg::Calibration,
-        out: dir.path().to_path_buf(),
-        seed,
-        frames: Some(frames),
-        width: 1024,
-        height: 768,
-        model: ModelArg::PlumbBob,
-        bad_frames: None,
-        rgb: false,
-        vertical: false,
-    })
-    .expect("synth");
-    let text = std::fs::read_to_string(dir.path().join("ground_truth.json")).expect("truth");
-    let truth: GroundTruth = serde_json::from_str(&text).expect("truth json");
+    let truth =
+        common::synthesize_session(&common::calibration_scene(dir.path(), seed, frames), None);
     let reader = BagReader::open(dir.path().join("bag")).expect("bag");
     let read = |topic: &str| -> Vec<Image> {
         reader
@@ -470,24 +458,11 @@ fn check_camera_file(dir: &Path, truth: &GroundTruth, index: usize) -> CameraInf
     assert_eq!(file.camera_name, record.name);
     assert_eq!((file.info.width, file.info.height), (1024, 768));
     let expected = record.camera_model().expect("model").intrinsics;
-    let k = file.info.k;
-    for (what, got, want) in [
-        ("fx", k[0], expected.fx),
-        ("fy", k[4], expected.fy),
-        ("cx", k[2], expected.cx),
-        ("cy", k[5], expected.cy),
-    ] {
-        assert!(
-            (got - want).abs() < 0.2,
-            "{} {what}: {got:.4} against {want:.4}",
-            record.name
-        );
-        println!(
-            "{} {what}: {:+.4} px from the truth",
-            record.name,
-            got - want
-        );
-    }
+    common::assert_intrinsics_near(
+        &record.name,
+        &common::intrinsics_from_k(&file.info.k),
+        &expected,
+    );
     // R rotates into the rectified frame; P projects with the rectified focal length.
     assert_ne!(file.info.r, [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]);
     let det = {
@@ -697,17 +672,7 @@ fn a_mono_node_calibrates_by_itself_once_coverage_is_ready() {
         .expect("model")
         .intrinsics;
     let k: Vec<f64> = serde_json::from_value(camera["k"].clone()).expect("k");
-    for (what, got, want) in [
-        ("fx", k[0], expected.fx),
-        ("fy", k[4], expected.fy),
-        ("cx", k[2], expected.cx),
-        ("cy", k[5], expected.cy),
-    ] {
-        assert!(
-            (got - want).abs() < 0.2,
-            "{what}: {got:.4} against {want:.4}"
-        );
-    }
+    common::assert_intrinsics_near("left", &common::intrinsics_from_k(&k), &expected);
 
     let committed = player.trigger("commit");
     let logs = node.terminate();

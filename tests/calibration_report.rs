@@ -2,6 +2,8 @@
 //! coverage counts, distortion field and rectified pair agree with the calibration it
 //! reports, for a synthetic stereo session (with bad frames) and a mono camera.
 
+mod common;
+
 use std::path::Path;
 
 use base64::Engine;
@@ -13,7 +15,7 @@ use stereocal::calibration_report::{
     EPIPOLAR_LINE_HALF_WIDTH, EPIPOLAR_LINES, ReportError, ReportInputs, render_report,
 };
 use stereocal::cli::calibrate::{CalibrateArgs, CalibrateReport, calibrate_bag};
-use stereocal::cli::synth::{ModelArg, SceneArg, SynthArgs};
+use stereocal::cli::synth::SynthArgs;
 use stereocal_vision::camera::CameraModel;
 use stereocal_vision::synth::GroundTruth;
 
@@ -21,21 +23,29 @@ use stereocal_vision::synth::GroundTruth;
 /// with a fraction `bad` of bad frames, the cameras side by side or one above the other
 /// (`vertical`), in mono8 or rgb8 (`rgb`).
 fn synthesize(dir: &Path, frames: usize, bad: f64, vertical: bool, rgb: bool) -> GroundTruth {
-    stereocal::cli::synth::run(&SynthArgs {
-        scene: SceneArg::Calibration,
-        out: dir.to_path_buf(),
-        seed: 3,
-        frames: Some(frames),
-        width: 1024,
-        height: 768,
-        model: ModelArg::PlumbBob,
+    let scene = SynthArgs {
         bad_frames: Some(bad),
         rgb,
         vertical,
-    })
-    .unwrap();
-    let text = std::fs::read_to_string(dir.join("ground_truth.json")).unwrap();
-    serde_json::from_str(&text).unwrap()
+        ..common::calibration_scene(dir, 3, frames)
+    };
+    common::synthesize_session(&scene, None)
+}
+
+/// The epipolar lines the rectified figure lists in its attribute `name`, asserted
+/// to be `EPIPOLAR_LINES` lines evenly spaced over `extent` pixels.
+fn epipolar_lines(figure: &str, name: &str, extent: u32) -> Vec<u32> {
+    let lines: Vec<u32> = attribute(figure, name)
+        .unwrap()
+        .split(' ')
+        .map(|line| line.parse().unwrap())
+        .collect();
+    let spacing = extent / EPIPOLAR_LINES as u32;
+    let expected: Vec<u32> = (0..EPIPOLAR_LINES as u32)
+        .map(|k| spacing / 2 + k * spacing)
+        .collect();
+    assert_eq!(lines, expected, "{name}");
+    lines
 }
 
 /// `stereocal calibrate`'s arguments, parsed as the command line would be.
@@ -245,16 +255,7 @@ fn stereo_report_shows_the_calibration_it_reports() {
     let image = picture(&html);
     assert_eq!(image.dimensions(), (2 * width, height));
     let figure = element(&html, "figure", "rectified", None);
-    let rows: Vec<u32> = attribute(figure, "data-epipolar-rows")
-        .unwrap()
-        .split(' ')
-        .map(|r| r.parse().unwrap())
-        .collect();
-    let spacing = height / EPIPOLAR_LINES as u32;
-    let expected: Vec<u32> = (0..EPIPOLAR_LINES as u32)
-        .map(|k| spacing / 2 + k * spacing)
-        .collect();
-    assert_eq!(rows, expected);
+    let rows = epipolar_lines(figure, "data-epipolar-rows", height);
     let half = EPIPOLAR_LINE_HALF_WIDTH as u32;
     let on_line = |y: u32| rows.iter().any(|r| r.abs_diff(y) <= half);
     for (y, row) in image.rows().enumerate() {
@@ -329,16 +330,7 @@ fn vertical_rig_has_epipolar_columns() {
     assert_eq!(image.dimensions(), (width, 2 * height));
     let figure = element(&html, "figure", "rectified", None);
     assert!(attribute(figure, "data-epipolar-rows").is_none());
-    let columns: Vec<u32> = attribute(figure, "data-epipolar-columns")
-        .unwrap()
-        .split(' ')
-        .map(|c| c.parse().unwrap())
-        .collect();
-    let spacing = width / EPIPOLAR_LINES as u32;
-    let expected: Vec<u32> = (0..EPIPOLAR_LINES as u32)
-        .map(|k| spacing / 2 + k * spacing)
-        .collect();
-    assert_eq!(columns, expected);
+    let columns = epipolar_lines(figure, "data-epipolar-columns", width);
     let half = EPIPOLAR_LINE_HALF_WIDTH as u32;
     for (x, y, pixel) in image.enumerate_pixels() {
         if columns.iter().any(|c| c.abs_diff(x) <= half) {
