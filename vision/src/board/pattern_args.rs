@@ -2,7 +2,8 @@
 //! `--pattern chessboard --size 9x6 --square 0.025`, or for ChArUco
 //! `--pattern charuco --size 7x5 --square 0.04 --charuco_marker_size 0.03
 //! --aruco_dict 5x5_100` (for ChArUco, as in camera_calibration, `--size` counts
-//! squares; for a chessboard, inner corners).
+//! squares; for a chessboard, inner corners). [`target_from_parts`] builds the same
+//! targets from values parsed elsewhere (a node's parameters).
 
 use super::BoardError;
 use super::target::{ArucoDictionary, Charuco, Chessboard, Target};
