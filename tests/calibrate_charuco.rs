@@ -11,7 +11,6 @@ use std::path::{Path, PathBuf};
 use indicatif::ProgressBar;
 use stereocal::cli::calibrate::{CalibrateArgs, CharucoArgs, calibrate_bag};
 use stereocal_vision::board::Target;
-use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::synth::FrameKind;
 
 fn board_file() -> PathBuf {
@@ -38,8 +37,6 @@ fn charuco_stereo_session_matches_ground_truth() {
 
     let report = calibrate_bag(
         &CalibrateArgs {
-            bag: dir.path().join("bag"),
-            out: dir.path().join("calibration"),
             pattern: "charuco".to_owned(),
             size: format!("{}x{}", board.squares_x, board.squares_y),
             square: board.square_size.to_string(),
@@ -47,12 +44,11 @@ fn charuco_stereo_session_matches_ground_truth() {
                 marker_size: Some(board.marker_size.to_string()),
                 aruco_dict: Some(board.dictionary.ros_name()),
             },
-            topic: None,
-            left: Some("/stereo/left/image_raw".to_owned()),
-            right: Some("/stereo/right/image_raw".to_owned()),
-            model: DistortionModel::PlumbBob,
-            name: "camera".to_owned(),
-            json: false,
+            ..common::calibrate_args(
+                dir.path().join("bag"),
+                dir.path().join("calibration"),
+                &truth,
+            )
         },
         &ProgressBar::hidden(),
     )

@@ -6,7 +6,7 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 use indicatif::ProgressBar;
@@ -14,7 +14,7 @@ use nalgebra::{Point2, Point3};
 use stereocal::calibration_stage::{
     CalibrationStageError, CameraFrames, Frame, FrameCorners, calibrate_camera,
 };
-use stereocal::cli::calibrate::{CalibrateArgs, calibrate_bag, report_json};
+use stereocal::cli::calibrate::{calibrate_bag, report_json};
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
 use stereocal_vision::calib::{CalibError, View};
@@ -24,23 +24,6 @@ use stereocal_vision::synth::{FrameKind, GroundTruth};
 /// Synthesizes a calibration session of `frames` frames into `dir`.
 fn synthesize(dir: &Path, frames: usize) -> GroundTruth {
     common::synthesize_session(&common::calibration_scene(dir, 1, frames), None)
-}
-
-fn args(bag: PathBuf, out: PathBuf, truth: &GroundTruth) -> CalibrateArgs {
-    CalibrateArgs {
-        bag,
-        out,
-        pattern: "chessboard".to_owned(),
-        size: format!("{}x{}", truth.board.cols, truth.board.rows),
-        square: truth.board.square_size.to_string(),
-        charuco: Default::default(),
-        topic: None,
-        left: Some("/stereo/left/image_raw".to_owned()),
-        right: Some("/stereo/right/image_raw".to_owned()),
-        model: DistortionModel::PlumbBob,
-        name: "camera".to_owned(),
-        json: false,
-    }
 }
 
 fn stamp(frame: &stereocal_vision::synth::FrameRecord) -> Time {
@@ -56,7 +39,7 @@ fn stereo_session_matches_ground_truth_and_reports_bad_frames() {
     let truth = synthesize(dir.path(), 25);
     let out = dir.path().join("calibration");
     let report = calibrate_bag(
-        &args(dir.path().join("bag"), out.clone(), &truth),
+        &common::calibrate_args(dir.path().join("bag"), out.clone(), &truth),
         &ProgressBar::hidden(),
     )
     .unwrap();
@@ -187,7 +170,7 @@ fn missing_topic_and_wrong_board_size_give_clear_errors() {
     let truth = synthesize(dir.path(), 3);
     let bag = dir.path().join("bag");
 
-    let mut missing = args(bag.clone(), dir.path().join("missing"), &truth);
+    let mut missing = common::calibrate_args(bag.clone(), dir.path().join("missing"), &truth);
     missing.left = Some("/stereo/lft/image_raw".to_owned());
     let error = format!(
         "{:#}",
@@ -199,7 +182,7 @@ fn missing_topic_and_wrong_board_size_give_clear_errors() {
         "the error lists the bag's image topics: {error}"
     );
 
-    let mut wrong_size = args(bag, dir.path().join("wrong"), &truth);
+    let mut wrong_size = common::calibrate_args(bag, dir.path().join("wrong"), &truth);
     wrong_size.size = format!("{}x{}", truth.board.cols + 1, truth.board.rows + 1);
     let error = format!(
         "{:#}",
@@ -218,7 +201,7 @@ fn mono_camera_is_written_under_its_name_without_rectification() {
     let dir = tempfile::tempdir().unwrap();
     let truth = synthesize(dir.path(), 3);
     let out = dir.path().join("mono");
-    let mut mono = args(dir.path().join("bag"), out.clone(), &truth);
+    let mut mono = common::calibrate_args(dir.path().join("bag"), out.clone(), &truth);
     mono.left = None;
     mono.right = None;
     mono.topic = Some("/stereo/right/image_raw".to_owned());

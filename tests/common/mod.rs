@@ -3,13 +3,14 @@
 //! binary uses the part it needs.
 #![allow(dead_code)]
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Matrix3};
 use stereocal::calibration_stage::{CameraResult, StereoResult};
+use stereocal::cli::calibrate::CalibrateArgs;
 use stereocal::cli::synth::{ModelArg, SceneArg, SynthArgs, run_with_target};
 use stereocal_vision::board::Target;
-use stereocal_vision::camera::Intrinsics;
+use stereocal_vision::camera::{DistortionModel, Intrinsics};
 use stereocal_vision::synth::GroundTruth;
 
 /// The `stereocal synth` arguments of a 1024x768 plumb-bob stereo calibration session
@@ -27,6 +28,26 @@ pub fn calibration_scene(dir: &Path, seed: u64, frames: usize) -> SynthArgs {
         bad_frames: None,
         rgb: false,
         vertical: false,
+    }
+}
+
+/// `stereocal calibrate`'s arguments for the stereo pair of a synthesized session
+/// (`/stereo/{left,right}/image_raw` in `bag`) showing the chessboard of `truth`,
+/// written to `out` with the plumb-bob model.
+pub fn calibrate_args(bag: PathBuf, out: PathBuf, truth: &GroundTruth) -> CalibrateArgs {
+    CalibrateArgs {
+        bag,
+        out,
+        pattern: "chessboard".to_owned(),
+        size: format!("{}x{}", truth.board.cols, truth.board.rows),
+        square: truth.board.square_size.to_string(),
+        charuco: Default::default(),
+        topic: None,
+        left: Some("/stereo/left/image_raw".to_owned()),
+        right: Some("/stereo/right/image_raw".to_owned()),
+        model: DistortionModel::PlumbBob,
+        name: "camera".to_owned(),
+        json: false,
     }
 }
 

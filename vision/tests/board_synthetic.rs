@@ -78,14 +78,7 @@ fn clean_frames_median_error_within_three_hundredths() {
 #[test]
 fn blurred_noisy_unevenly_lit_cluttered_frames_are_detected() {
     let session = session(12, Coverage::Full, 6);
-    let hard = Photometry {
-        defocus_sigma: 1.8,
-        read_noise: 4.0,
-        shot_noise: 4.0,
-        board_light_gradient: [0.5, -0.4],
-        vignetting: 0.5,
-        ..Photometry::realistic()
-    };
+    let hard = common::render::hard_photometry();
     for (index, pose) in session.poses.iter().enumerate() {
         for (what, photometry) in [("realistic", Photometry::realistic()), ("hard", hard)] {
             let image = session.render(pose, photometry, 100 + index as u64);

@@ -186,14 +186,7 @@ fn partly_visible_boards_give_the_visible_corners_with_their_ids() {
 fn blurred_noisy_unevenly_lit_frames_are_detected() {
     let session = session(23, synth_board(DICTIONARY), Coverage::Full, 6);
     let detector = detector();
-    let hard = Photometry {
-        defocus_sigma: 1.8,
-        read_noise: 4.0,
-        shot_noise: 4.0,
-        board_light_gradient: [0.5, -0.4],
-        vignetting: 0.5,
-        ..Photometry::realistic()
-    };
+    let hard = common::render::hard_photometry();
     for (index, pose) in session.poses.iter().enumerate() {
         for (what, photometry) in [("realistic", Photometry::realistic()), ("hard", hard)] {
             let image = session.render(pose, photometry, 100 + index as u64);

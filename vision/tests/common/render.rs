@@ -13,6 +13,19 @@ use stereocal_vision::synth::{
     Shot, synthetic_camera,
 };
 
+/// A realistic camera at its worst: defocused, noisy, with light falling unevenly
+/// on the board and strong vignetting.
+pub fn hard_photometry() -> Photometry {
+    Photometry {
+        defocus_sigma: 1.8,
+        read_noise: 4.0,
+        shot_noise: 4.0,
+        board_light_gradient: [0.5, -0.4],
+        vignetting: 0.5,
+        ..Photometry::realistic()
+    }
+}
+
 /// A synthetic camera looking at a board: the camera, the board, its renderer and
 /// the sampled `camera_from_target` poses.
 pub struct Scene {
