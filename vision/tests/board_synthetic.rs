@@ -7,7 +7,6 @@ mod common;
 use common::render::Scene;
 use nalgebra::{Isometry3, Point2};
 use stereocal_vision::board::{self, ChessboardDetector, TargetDetector};
-use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::image::Image;
 use stereocal_vision::synth::{Chessboard, Coverage, Photometry, corner_truth};
 
@@ -16,15 +15,7 @@ const ROWS: usize = 6;
 
 fn session(seed: u64, coverage: Coverage, views: usize) -> Scene {
     let board = Chessboard::new(COLS, ROWS, 0.04, 0.03).unwrap();
-    Scene::new(
-        seed,
-        DistortionModel::PlumbBob,
-        1280,
-        720,
-        board,
-        coverage,
-        views,
-    )
+    Scene::hd(seed, board, coverage, views)
 }
 
 fn detector(cols: usize, rows: usize) -> ChessboardDetector {

@@ -13,7 +13,6 @@ use stereocal_vision::board::{
     self, ArucoDictionary, CharucoDetector, MIN_CHARUCO_CORNERS, Target, TargetDetector,
     detector_for,
 };
-use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::image::Image;
 use stereocal_vision::synth::{CharucoMarkers, Chessboard, Coverage, Photometry, corner_truth};
 
@@ -27,18 +26,6 @@ const DICTIONARY: ArucoDictionary = ArucoDictionary::Dict5x5_100;
 fn synth_board(dictionary: ArucoDictionary) -> Chessboard {
     let markers = CharucoMarkers::new(MARKER, dictionary).unwrap();
     Chessboard::charuco(SQUARES_X - 1, SQUARES_Y - 1, SQUARE, SQUARE, markers).unwrap()
-}
-
-fn session(seed: u64, board: Chessboard, coverage: Coverage, views: usize) -> Scene {
-    Scene::new(
-        seed,
-        DistortionModel::PlumbBob,
-        1280,
-        720,
-        board,
-        coverage,
-        views,
-    )
 }
 
 fn target(dictionary: ArucoDictionary) -> board::Charuco {
@@ -111,7 +98,7 @@ fn summary(values: &[f64]) -> (f64, f64, f64) {
 
 #[test]
 fn clean_frames_give_the_corners_with_their_ids_within_three_hundredths_median() {
-    let session = session(21, synth_board(DICTIONARY), Coverage::Full, 8);
+    let session = Scene::hd(21, synth_board(DICTIONARY), Coverage::Full, 8);
     let detector = detector();
     let mut all = Vec::new();
     for (index, pose) in session.poses.iter().enumerate() {
@@ -142,7 +129,7 @@ fn clean_frames_give_the_corners_with_their_ids_within_three_hundredths_median()
 
 #[test]
 fn partly_visible_boards_give_the_visible_corners_with_their_ids() {
-    let session = session(22, synth_board(DICTIONARY), Coverage::Partial, 6);
+    let session = Scene::hd(22, synth_board(DICTIONARY), Coverage::Partial, 6);
     let detector = detector();
     let mut detected = 0;
     for (index, pose) in session.poses.iter().enumerate() {
@@ -184,7 +171,7 @@ fn partly_visible_boards_give_the_visible_corners_with_their_ids() {
 
 #[test]
 fn blurred_noisy_unevenly_lit_frames_are_detected() {
-    let session = session(23, synth_board(DICTIONARY), Coverage::Full, 6);
+    let session = Scene::hd(23, synth_board(DICTIONARY), Coverage::Full, 6);
     let detector = detector();
     let hard = common::render::hard_photometry();
     for (index, pose) in session.poses.iter().enumerate() {
@@ -225,13 +212,13 @@ fn assert_never_detected(session: &Scene) {
 #[test]
 fn a_chessboard_is_not_a_charuco_board() {
     let chessboard = Chessboard::new(SQUARES_X - 1, SQUARES_Y - 1, SQUARE, SQUARE).unwrap();
-    let session = session(24, chessboard, Coverage::Full, 3);
+    let session = Scene::hd(24, chessboard, Coverage::Full, 3);
     assert_never_detected(&session);
 }
 
 #[test]
 fn a_board_from_another_dictionary_is_not_found() {
-    let session = session(
+    let session = Scene::hd(
         25,
         synth_board(ArucoDictionary::Dict4x4_50),
         Coverage::Full,

@@ -72,6 +72,19 @@ impl Scene {
         }
     }
 
+    /// [`Scene::new`] with a 1280x720 plumb-bob camera, the detection tests' camera.
+    pub fn hd(seed: u64, board: Chessboard, coverage: Coverage, views: usize) -> Scene {
+        Scene::new(
+            seed,
+            DistortionModel::PlumbBob,
+            1280,
+            720,
+            board,
+            coverage,
+            views,
+        )
+    }
+
     /// The Mono8 view of the board at `pose`, 8x8 supersampled, with noise from
     /// `noise_seed`.
     pub fn render(&self, pose: &Isometry3<f64>, photometry: Photometry, noise_seed: u64) -> Image {
