@@ -27,7 +27,8 @@ pub struct DemoArgs {
     /// `ground_truth.json`); default: the bundled one, synthesized if missing.
     #[arg(long)]
     pub scene: Option<PathBuf>,
-    /// Where to write the rectified bags; default: a temporary folder removed at the end.
+    /// Where to write the rectified bags and the calibration session (its camera_info
+    /// files and report.html); default: a temporary folder removed at the end.
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// ROS domain of the node run (the nodes and the player join only this domain).
@@ -87,7 +88,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     );
     print_alignment(&offline_alignment, offline_frames);
 
-    calibration_session(&out)?;
+    calibration_session(&out, args.out.is_some())?;
 
     if args.offline_only {
         return Ok(());
@@ -139,8 +140,9 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
 
 /// A stereo calibration session with bad frames, synthesized, calibrated with
 /// `stereocal calibrate`, and rectified with the result: the errors against the
-/// session's ground truth.
-fn calibration_session(out: &Path) -> anyhow::Result<()> {
+/// session's ground truth. `kept`: `out` stays after the demo, so its report is worth
+/// pointing to.
+fn calibration_session(out: &Path, kept: bool) -> anyhow::Result<()> {
     let dir = out.join("calibration");
     println!("\ncalibration: a synthetic stereo session, calibrated and rectified with the result");
     crate::cli::synth::run(&SynthArgs {
@@ -214,7 +216,11 @@ fn calibration_session(out: &Path) -> anyhow::Result<()> {
         );
     }
 
-    println!("  report: {}", report.report.display());
+    if kept {
+        println!("  report: {}", report.report.display());
+    } else {
+        println!("  report: report.html in a temporary folder; run with --out DIR to keep it");
+    }
 
     // Rectify the session with the calibration and measure its rows.
     scene.left = calibrated_camera_from_info(&left.info)?;
