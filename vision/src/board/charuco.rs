@@ -26,6 +26,7 @@ use calib_targets_chessboard::{DetectorConfig, default_chess_config, detect_corn
 use chess_corners::{ImageRefiner, UpscaleConfig};
 use nalgebra::Point2;
 
+use super::contained::contained;
 use super::detection::{Detection, TargetDetector};
 use super::target::{Charuco, Target};
 use super::{BoardError, Gray};
@@ -101,6 +102,11 @@ impl CharucoDetector {
     /// corners), completed by the others that agree with it; the upscaled pass runs
     /// only when the first misses corners.
     fn find_corners(&self, gray: &Gray) -> Option<(Vec<usize>, Vec<Point2<f64>>)> {
+        contained(|| self.search_corners(gray))
+    }
+
+    /// [`find_corners`](Self::find_corners), unprotected from the detector library.
+    fn search_corners(&self, gray: &Gray) -> Option<(Vec<usize>, Vec<Point2<f64>>)> {
         let view = GrayImageView {
             width: gray.width,
             height: gray.height,

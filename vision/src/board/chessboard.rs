@@ -20,6 +20,7 @@ use calib_targets_chessboard::{
 use chess_corners::{ImageRefiner, MultiscaleConfig};
 use nalgebra::Point2;
 
+use super::contained::contained;
 use super::detection::{Detection, TargetDetector};
 use super::grid::{GridCorner, board_corners};
 use super::subpixel::{SubpixelWindow, refine_corners};
@@ -76,8 +77,13 @@ impl ChessboardDetector {
     }
 
     /// The board's corners in target order at the resolution of `gray`, before
-    /// sub-pixel refinement.
+    /// sub-pixel refinement, and which of them the grid lacked and we predicted.
     fn find_board(&self, gray: &Gray) -> Option<(Vec<Point2<f64>>, Vec<bool>)> {
+        contained(|| self.search_board(gray))
+    }
+
+    /// [`find_board`](Self::find_board), unprotected from the corner library.
+    fn search_board(&self, gray: &Gray) -> Option<(Vec<Point2<f64>>, Vec<bool>)> {
         let view = GrayImageView {
             width: gray.width,
             height: gray.height,

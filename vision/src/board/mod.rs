@@ -7,6 +7,7 @@
 
 mod charuco;
 mod chessboard;
+mod contained;
 mod detection;
 mod gray;
 mod grid;
