@@ -1,14 +1,14 @@
 """rosbag2 MCAP bags exchanged between stereocal and independent implementations.
 
-(a) stereocal writes a bag (the ignored test `write_bag_for_rosbags` in
-    tests/bag_interop.rs); the `rosbags` library reads it through its rosbag2 reader
+(a) stereocal writes a bag (the ignored test `interop::write_bag_for_rosbags` in
+    rosbag/tests/interop.rs); the `rosbags` library reads it through its rosbag2 reader
     (metadata.yaml, topics, counts, types, offered QoS) and decodes every message with
     its ROS 2 Humble typestore, and the Python `mcap` library checks the file itself:
     profile `ros2`, `ros2msg` schemas, `cdr` channels with `offered_qos_profiles`, zstd
     chunks, summary with chunk indexes and statistics, and the `rosbag2` metadata record.
 (b) `rosbags` writes the same sample (rosbag2 metadata versions 8 and 9, uncompressed
     and zstd chunks) and stereocal reads it back (the ignored test
-    `read_bag_written_by_rosbags`), checking topics, counts and decoded values.
+    `interop::read_bag_written_by_rosbags`), checking topics, counts and decoded values.
 
 Both sides build the sample from the same formulas: frame i has stamp (100 + i, 1000 i),
 log time stamp + 0 ns for the image and + 500 ns for the pose.
@@ -100,7 +100,8 @@ def same_pose(a, b):
 
 
 def cargo_test(name, **env):
-    cmd = ['cargo', 'test', '--quiet', '--test', 'bag_interop', '--', '--ignored', '--exact', name]
+    cmd = ['cargo', 'test', '--quiet', '-p', 'stereocal-rosbag', '--test', 'rosbag', '--',
+           '--ignored', '--exact', f'interop::{name}']
     result = subprocess.run(cmd, cwd=REPO, env={**os.environ, **env}, capture_output=True, text=True)
     # A filter that matches nothing also succeeds: require that the one test ran.
     ran = result.returncode == 0 and '1 passed' in result.stdout

@@ -1,19 +1,13 @@
-//! The stereocal node runtime: ROS 2 glue (parameters, remapping, QoS, TF), rosbag2
-//! bag source and sink, conversions between messages and vision types, and the
-//! pipeline stages that nodes and the offline CLI share.
+//! stereocal's nodes, offline commands and the pipeline stages they share, one module
+//! per capability: [`rectify`] and [`calibrate`] (each with its node, stage and what
+//! serves them), [`convert`] between ROS messages and vision types, [`cli`] with one
+//! module per `stereocal` command, and [`tools`] shared by the measuring binaries.
+//!
+//! The node runtime is the `stereocal-runtime` crate, bags the `stereocal-rosbag` crate,
+//! geometry and images the `stereocal-vision` crate.
 
-pub mod bag;
-pub mod calibrate_node;
-pub mod calibration_advice;
-pub mod calibration_report;
-pub mod calibration_session;
-pub mod calibration_stage;
+pub mod calibrate;
 pub mod cli;
 pub mod convert;
-pub mod measure;
-pub mod rectify_node;
-pub mod rectify_stage;
-pub mod replay;
-pub mod row_alignment;
-pub mod runtime;
-pub mod stereo_scene;
+pub mod rectify;
+pub mod tools;

@@ -5,9 +5,9 @@
 use std::path::Path;
 
 use ros2_client::ParameterValue;
-use stereocal::runtime::args::RosArgs;
-use stereocal::runtime::names::NodeIdentity;
-use stereocal::runtime::params::{ParamSpec, startup_params};
+use stereocal_runtime::args::RosArgs;
+use stereocal_runtime::names::NodeIdentity;
+use stereocal_runtime::params::{ParamSpec, startup_params};
 
 const PARAMS_FILE: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/config/stereo_rectify.yaml");
 

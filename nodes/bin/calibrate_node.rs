@@ -3,7 +3,7 @@
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    match stereocal::calibrate_node::run(std::env::args().skip(1)) {
+    match stereocal::calibrate::node::run(std::env::args().skip(1)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("calibrate_node: {e:#}");

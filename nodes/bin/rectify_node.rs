@@ -3,7 +3,7 @@
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    match stereocal::rectify_node::run(std::env::args().skip(1)) {
+    match stereocal::rectify::node::run(std::env::args().skip(1)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("rectify_node: {e:#}");

@@ -7,15 +7,16 @@ use std::time::Duration;
 
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
+use stereocal_vision::calib::quality::DEFAULT_MAX_BLUR;
 use stereocal_vision::camera::DistortionModel;
 
 use crate::cli::calibrate::{CalibrateArgs, calibrate_bag};
 use crate::cli::rectify::{BagRectifyOptions, rectify_bag};
 use crate::cli::synth::{ModelArg, SceneArg, SynthArgs};
 use crate::convert::calibrated_camera_from_info;
-use crate::replay::{NodeReplay, ReplayOutcome, replay_through_rectify_nodes};
-use crate::row_alignment::RowAlignment;
-use crate::stereo_scene::{LEFT, RIGHT, StereoScene, identical_images, read_rectified};
+use crate::rectify::replay::{NodeReplay, ReplayOutcome, replay_through_rectify_nodes};
+use crate::rectify::row_alignment::RowAlignment;
+use crate::rectify::scene::{LEFT, RIGHT, StereoScene, identical_images, read_rectified};
 
 /// The bundled stereo scene, made by `stereocal synth` with these settings.
 pub const BUNDLED_STEREO: &str = "bags/stereo";
@@ -173,6 +174,8 @@ fn calibration_session(out: &Path, kept: bool) -> anyhow::Result<()> {
             right: Some(format!("{RIGHT}/image_raw")),
             model: DistortionModel::PlumbBob,
             name: "camera".into(),
+            max_blur: DEFAULT_MAX_BLUR,
+            max_board_speed: 0.0,
             json: false,
         },
         &ProgressBar::hidden(),

@@ -1,7 +1,8 @@
-//! The offline commands of the `stereocal` binary, one module per command; each exposes
-//! its clap `Args` and a `run` function.
+//! The commands of the `stereocal` binary, one module per command; each exposes its
+//! clap arguments and a `run` function.
 
 pub mod calibrate;
 pub mod demo;
+pub mod node;
 pub mod rectify;
 pub mod synth;

@@ -17,11 +17,11 @@ use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
-use crate::bag::{
+use crate::rectify::stage::{Rectified, Rectifier};
+use stereocal_rosbag::{
     BagReader, BagWriter, ChunkCompression, Durability, OfferedQos, Reliability, TopicFilter,
     TopicId, WriterOptions,
 };
-use crate::rectify_stage::{Rectified, Rectifier};
 
 /// Images per camera that may wait for a camera_info with their stamp.
 const MAX_PENDING: usize = 4;

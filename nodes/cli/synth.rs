@@ -24,10 +24,10 @@ use stereocal_vision::synth::{
     Chessboard, GroundTruth, PixelFormat, RigLayout, Scene, SceneKind, SceneSpec, StampRecord,
 };
 
-use crate::bag::{BagWriter, OfferedQos, WriterOptions};
 use crate::convert::{
     CalibratedCamera, Encoding, info_from_calibrated, info_from_raw_camera, msg_from_image,
 };
+use stereocal_rosbag::{BagWriter, OfferedQos, WriterOptions};
 
 /// Frame of the robot's base in hand-eye bags.
 const BASE_FRAME: &str = "base";

@@ -1,15 +1,14 @@
 //! Helpers shared by the end-to-end tests: synthesizing a calibration session with
-//! `stereocal synth` and checking calibrations against its ground truth. Each test
-//! binary uses the part it needs.
-#![allow(dead_code)]
+//! `stereocal synth` and checking calibrations against its ground truth.
 
 use std::path::{Path, PathBuf};
 
 use nalgebra::{Isometry3, Matrix3};
-use stereocal::calibration_stage::{CameraResult, StereoResult};
+use stereocal::calibrate::stage::{CameraResult, StereoResult};
 use stereocal::cli::calibrate::CalibrateArgs;
 use stereocal::cli::synth::{ModelArg, SceneArg, SynthArgs, run_with_target};
 use stereocal_vision::board::Target;
+use stereocal_vision::calib::quality::DEFAULT_MAX_BLUR;
 use stereocal_vision::camera::{DistortionModel, Intrinsics};
 use stereocal_vision::synth::GroundTruth;
 
@@ -47,6 +46,8 @@ pub fn calibrate_args(bag: PathBuf, out: PathBuf, truth: &GroundTruth) -> Calibr
         right: Some("/stereo/right/image_raw".to_owned()),
         model: DistortionModel::PlumbBob,
         name: "camera".to_owned(),
+        max_blur: DEFAULT_MAX_BLUR,
+        max_board_speed: 0.0,
         json: false,
     }
 }

@@ -2,6 +2,8 @@
 //! synthetic frame: a 9x6 board in eight poses over the image, realistic light and
 //! noise on a cluttered background. `interop/bench_calibrate_opencv.py` compares
 //! detection with OpenCV's findChessboardCorners + cornerSubPix on the same images.
+// A benchmark on fixed inputs: an input that fails is a bug to see at once.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use std::hint::black_box;
 use std::sync::Arc;

@@ -1,6 +1,8 @@
 //! Rendering one 1024x768 synthetic frame (realistic photometry: blur, vignetting,
 //! noise), mono8 and rgb8, and a motion-blurred mono8 frame; plus building a renderer
 //! (the camera's ray grid), which happens once per camera.
+// A benchmark on fixed inputs: an input that fails is a bug to see at once.
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 use std::hint::black_box;
 use std::sync::Arc;

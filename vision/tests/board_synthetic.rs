@@ -2,7 +2,7 @@
 //! corners are known exactly: accuracy on clean frames, detection under blur, noise,
 //! uneven light and clutter, and refusal of wrong board sizes and partial boards.
 
-mod common;
+use crate::common;
 
 use common::render::Scene;
 use nalgebra::{Isometry3, Point2};

@@ -4,7 +4,7 @@
 use nalgebra::{Point2, Point3, Vector2};
 use stereocal_vision::camera::{CameraModel, DistortionModel, optimal_new_camera_matrix};
 
-mod common;
+use crate::common;
 use common::opencv_fixture::{camera, f64s, fixture, roi};
 
 fn reprojection_px(camera: &CameraModel, pixel: &Point2<f64>, undistorted: &Vector2<f64>) -> f64 {

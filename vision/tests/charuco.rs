@@ -3,7 +3,7 @@
 //! and noise, and refusal of chessboards and of a board printed from another
 //! dictionary.
 
-mod common;
+use crate::common;
 
 use std::collections::BTreeSet;
 

@@ -8,7 +8,7 @@ use stereocal_vision::rectify::{
     StereoLayout, StereoRectification, StereoRectifyOptions, fisheye_stereo_rectify, stereo_rectify,
 };
 
-mod common;
+use crate::common;
 use common::opencv_fixture::{camera, f64s, fixture, roi};
 
 fn matrix(value: &Value, rows: usize, cols: usize) -> DMatrix<f64> {

@@ -2,7 +2,7 @@
 //! saddle-point fit on noise-free, highly supersampled renders lies within 0.02 px of
 //! its true projection, for all three lens models and several poses.
 
-mod common;
+use crate::common;
 
 use common::render::Scene;
 use nalgebra::{Point2, Vector2};

@@ -1,5 +1,6 @@
 //! Camera calibration from views of a planar target: mono (intrinsics, distortion and
-//! per-view poses) and stereo (`right_from_left`, E and F).
+//! per-view poses) and stereo (`right_from_left`, E and F), and the [`quality`] of the
+//! frames they are made from (sharpness, motion, coverage).
 //!
 //! Conventions: target points in metres in the target frame, on its plane `z = 0`;
 //! pixels with pixel centres at integer coordinates; poses named `a_from_b`.
@@ -16,6 +17,7 @@ mod init;
 mod invertibility;
 mod mono;
 mod parameters;
+pub mod quality;
 mod rejection;
 mod reprojection;
 mod stereo;

@@ -1,6 +1,4 @@
-//! Helpers shared by the integration tests of stereocal-vision; each test binary
-//! uses the part it needs.
-#![allow(dead_code)]
+//! Helpers shared by the tests of stereocal-vision.
 
 pub mod opencv_fixture;
 pub mod render;

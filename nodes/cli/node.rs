@@ -1,0 +1,28 @@
+//! `stereocal node NAME [--ros-args ...]`: runs one of the nodes in this process,
+//! exactly as its own executable would be run by `ros2 launch`.
+
+/// The nodes `stereocal node` runs.
+#[derive(clap::Subcommand, Debug)]
+pub enum NodeCommand {
+    /// The rectify node: `image` + `camera_info` in, `image_rect` out.
+    Rectify {
+        /// ROS arguments, as for the `rectify_node` executable.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
+    /// The calibrate node: collects samples from `image` (or `left/image` and
+    /// `right/image`), calibrates and commits on `~/calibrate` and `~/commit`.
+    Calibrate {
+        /// ROS arguments, as for the `calibrate_node` executable.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
+}
+
+/// Runs the node until SIGINT/SIGTERM.
+pub fn run(command: NodeCommand) -> anyhow::Result<()> {
+    match command {
+        NodeCommand::Rectify { args } => crate::rectify::node::run(args),
+        NodeCommand::Calibrate { args } => crate::calibrate::node::run(args),
+    }
+}

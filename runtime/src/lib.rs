@@ -1,0 +1,44 @@
+//! The ROS 2 node runtime: what `ros2 run` and `ros2 launch` expect from an executable,
+//! and the one skeleton every stereocal node is built on. It knows ROS messages
+//! (`stereocal-msgs`) and nothing of images or geometry.
+//!
+//! [`args`] parses `--ros-args` (remaps, parameters, params files, log levels), [`names`]
+//! resolves node and topic names like rcl, [`params`] gives declared parameters their
+//! start-up values (from [`params_file`]s and `-p` values typed by [`param_value`]),
+//! [`qos`] holds the QoS profiles of DESIGN.md, [`stamp`] the one stamp type, [`sync`]
+//! synchronizes a node's inputs by stamp (streams with each other, camera_info with
+//! them), [`service`] serves and calls ROS 2 services, [`queue`] is the bounded
+//! drop-oldest queue between receiving and processing, [`sequence_gaps`] counts frames
+//! lost before reception, [`logging`] writes to stderr and `/rosout`, [`throttle`] keeps
+//! repeated warnings rare, [`shutdown`] turns SIGINT/SIGTERM into a clean stop,
+//! [`transport`] sets up the DDS participant, [`camera_info_url`] resolves
+//! camera_info_manager's URLs, and [`node`] puts it together into a running ROS 2 node
+//! on `ROS_DOMAIN_ID` with its parameter services. [`skeleton`] runs a node:
+//! subscribe, synchronize, queue, work, publish, shut down.
+//!
+//! With the `testing` feature, [`testing`] runs nodes as processes of their own on ROS
+//! domains of their own, for tests and measuring tools.
+
+pub mod args;
+pub mod camera_info_url;
+pub mod error;
+pub mod logging;
+pub mod names;
+pub mod node;
+pub mod param_value;
+pub mod params;
+pub mod params_file;
+pub mod qos;
+pub mod queue;
+pub mod sequence_gaps;
+pub mod service;
+pub mod shutdown;
+pub mod skeleton;
+pub mod stamp;
+pub mod sync;
+#[cfg(feature = "testing")]
+pub mod testing;
+pub mod throttle;
+pub mod transport;
+
+pub use error::{Result, RuntimeError};

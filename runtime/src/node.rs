@@ -1,0 +1,449 @@
+//! A running ROS 2 node set up from the command line: name and namespace after remaps,
+//! declared parameters with their start-up values served by the parameter services,
+//! logging, the DDS participant on `ROS_DOMAIN_ID`, and the background spinner that
+//! answers discovery and parameter requests.
+
+use std::thread::JoinHandle;
+
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, Publisher,
+    QosProfile, Subscription,
+};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use stereocal_msgs::RosMessage;
+
+use super::args::RosArgs;
+use super::error::{Result, RuntimeError};
+use super::logging::{self, LogConfig};
+use super::names::NodeIdentity;
+use super::params::{ParamSpec, startup_params, type_name};
+use super::service::{self, ServiceClient, ServiceServer};
+use super::shutdown::Shutdown;
+use super::transport::{TransportConfig, TransportError};
+
+/// Highest domain id whose DDS ports fit in the UDP port range (as rmw checks).
+const MAX_DOMAIN_ID: u16 = 232;
+
+/// DDS participant settings a node fixes in code, over what its environment asks
+/// for ([`TransportConfig::from_env`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DdsOptions {
+    /// Requested `SO_RCVBUF` of every UDP socket, bytes; `None` keeps the environment's.
+    pub socket_receive_buffer: Option<usize>,
+    /// Requested `SO_SNDBUF` of every UDP socket, bytes; `None` keeps the environment's.
+    pub socket_send_buffer: Option<usize>,
+}
+
+impl DdsOptions {
+    /// `transport` with these options applied over it.
+    pub fn apply(&self, transport: TransportConfig) -> TransportConfig {
+        TransportConfig {
+            socket_receive_buffer: self
+                .socket_receive_buffer
+                .unwrap_or(transport.socket_receive_buffer),
+            socket_send_buffer: self
+                .socket_send_buffer
+                .unwrap_or(transport.socket_send_buffer),
+            ..transport
+        }
+    }
+}
+
+/// Describes a node before it starts: default name and namespace, parameters.
+pub struct NodeBuilder {
+    default_name: String,
+    default_namespace: String,
+    specs: Vec<ParamSpec>,
+    dds: DdsOptions,
+}
+
+/// The DDS domain of `ROS_DOMAIN_ID` (unset or empty: 0).
+pub fn domain_id_from_env() -> Result<u16> {
+    let text = match std::env::var("ROS_DOMAIN_ID") {
+        Ok(text) => text,
+        Err(std::env::VarError::NotPresent) => return Ok(0),
+        Err(std::env::VarError::NotUnicode(_)) => {
+            return Err(bad_domain("(not UTF-8)"));
+        }
+    };
+    let text = text.trim();
+    if text.is_empty() {
+        return Ok(0);
+    }
+    match text.parse::<u16>() {
+        Ok(id) if id <= MAX_DOMAIN_ID => Ok(id),
+        _ => Err(bad_domain(text)),
+    }
+}
+
+fn bad_domain(text: &str) -> RuntimeError {
+    RuntimeError::Argument {
+        argument: format!("ROS_DOMAIN_ID={text}"),
+        reason: format!("expected an integer from 0 to {MAX_DOMAIN_ID}"),
+    }
+}
+
+fn middleware(what: &str, e: impl std::fmt::Display) -> RuntimeError {
+    RuntimeError::Middleware(format!("{what}: {e}"))
+}
+
+/// ROS's `pkg/msg/Type` as ros2-client's message type name.
+pub(crate) fn message_type_name<M: RosMessage>() -> Result<MessageTypeName> {
+    match M::TYPE_NAME.split('/').collect::<Vec<_>>().as_slice() {
+        [package, "msg", name] => Ok(MessageTypeName::new(package, name)),
+        _ => Err(RuntimeError::Name {
+            name: M::TYPE_NAME.to_string(),
+            reason: "a message type name has the form package/msg/Type".into(),
+        }),
+    }
+}
+
+impl NodeBuilder {
+    /// A node named `default_name` in the root namespace, unless remapped.
+    pub fn new(default_name: &str) -> Self {
+        NodeBuilder {
+            default_name: default_name.to_string(),
+            default_namespace: "/".to_string(),
+            specs: Vec::new(),
+            dds: DdsOptions::default(),
+        }
+    }
+
+    /// Declares a parameter.
+    pub fn param(mut self, spec: ParamSpec) -> Self {
+        self.specs.push(spec);
+        self
+    }
+
+    /// Sets the DDS participant's socket options.
+    pub fn dds(mut self, dds: DdsOptions) -> Self {
+        self.dds = dds;
+        self
+    }
+
+    /// Starts the node from this process's command line.
+    pub fn start_from_env(self) -> Result<RosNode> {
+        self.start(std::env::args().skip(1))
+    }
+
+    /// Starts the node from `args` (the command line without the program name): parses
+    /// the ROS arguments, sets up logging, joins the DDS domain of `ROS_DOMAIN_ID` with
+    /// the transport settings of the environment ([`TransportConfig::from_env`]: the
+    /// ROS 2 discovery range, socket buffer requests), creates the node with its
+    /// parameters and starts its spinner.
+    pub fn start<I, S>(self, args: I) -> Result<RosNode>
+    where
+        I: IntoIterator<Item = S>,
+        S: Into<String>,
+    {
+        let (ros_args, node_args) = RosArgs::parse(args)?;
+        let identity = NodeIdentity::resolve(
+            &self.default_name,
+            &self.default_namespace,
+            &ros_args.remaps,
+        )?;
+        logging::init(LogConfig {
+            logger_name: identity.logger_name(),
+            level: ros_args.log_level_for(&identity.logger_name()),
+            stderr: ros_args.stdout_logs,
+            rosout: ros_args.rosout_logs,
+            external_lib_logs: ros_args.external_lib_logs,
+        });
+        let startup = startup_params(&self.specs, &ros_args.params, &identity)?;
+        for name in &startup.undeclared {
+            log::warn!("ignoring parameter override '{name}': this node does not declare it");
+        }
+        let shutdown = Shutdown::install()?;
+        let domain_id = domain_id_from_env()?;
+
+        let transport = self
+            .dds
+            .apply(TransportConfig::from_env().map_err(|e| match e {
+                TransportError::Setting {
+                    variable,
+                    value,
+                    expected,
+                } => RuntimeError::Argument {
+                    argument: format!("{variable}={value}"),
+                    reason: format!("expected {expected}"),
+                },
+                other => RuntimeError::Middleware(other.to_string()),
+            })?);
+        for warning in transport.host_warnings() {
+            log::warn!("{warning}");
+        }
+        let context = transport
+            .context(domain_id)
+            .map_err(|e| RuntimeError::Middleware(e.to_string()))?;
+
+        let specs = self.specs.clone();
+        let mut options = NodeOptions::new()
+            .enable_rosout(ros_args.rosout_logs)
+            .start_parameter_services(true)
+            .parameter_validator(Box::new(move |name, value| {
+                specs
+                    .iter()
+                    .find(|s| s.name == name)
+                    .map_or(Ok(()), |spec| spec.accept(value.clone()).map(|_| ()))
+            }));
+        for parameter in &startup.values {
+            options = options.declare_parameter(&parameter.name, parameter.value.clone());
+        }
+        let node_name = NodeName::new(&identity.namespace, &identity.name)
+            .map_err(|e| middleware("node name", format!("{e:?}")))?;
+        let mut node = context
+            .new_node(node_name, options)
+            .map_err(|e| middleware("node", format!("{e:?}")))?;
+        let spinner = node.spinner().map_err(|e| middleware("node spinner", e))?;
+        let spinner_thread = std::thread::Builder::new()
+            .name("ros-spinner".into())
+            .spawn(move || {
+                if let Err(e) = futures::executor::block_on(spinner.spin()) {
+                    log::error!("node spinner stopped: {e}");
+                }
+            })
+            .map_err(|e| middleware("spinner thread", e))?;
+        logging::attach_rosout(node.logging_handle());
+        log::info!(
+            "started {} on ROS domain {domain_id} ({transport})",
+            identity.fully_qualified_name()
+        );
+        Ok(RosNode {
+            identity,
+            ros_args,
+            node_args,
+            specs: self.specs,
+            node: Some(node),
+            _context: context,
+            shutdown,
+            spinner_thread: Some(spinner_thread),
+        })
+    }
+}
+
+/// A started ROS 2 node. Dropping it stops the spinner and leaves the DDS domain.
+pub struct RosNode {
+    identity: NodeIdentity,
+    ros_args: RosArgs,
+    node_args: Vec<String>,
+    specs: Vec<ParamSpec>,
+    node: Option<Node>,
+    _context: Context,
+    shutdown: Shutdown,
+    spinner_thread: Option<JoinHandle<()>>,
+}
+
+impl RosNode {
+    fn node(&self) -> Result<&Node> {
+        self.node
+            .as_ref()
+            .ok_or_else(|| RuntimeError::Middleware("the node has been shut down".into()))
+    }
+
+    fn node_mut(&mut self) -> Result<&mut Node> {
+        self.node
+            .as_mut()
+            .ok_or_else(|| RuntimeError::Middleware("the node has been shut down".into()))
+    }
+
+    /// The node's name and namespace.
+    pub fn identity(&self) -> &NodeIdentity {
+        &self.identity
+    }
+
+    /// The command-line arguments outside `--ros-args`.
+    pub fn node_args(&self) -> &[String] {
+        &self.node_args
+    }
+
+    /// The parsed ROS arguments.
+    pub fn ros_args(&self) -> &RosArgs {
+        &self.ros_args
+    }
+
+    /// The process's stop request (SIGINT/SIGTERM).
+    pub fn shutdown(&self) -> Shutdown {
+        self.shutdown.clone()
+    }
+
+    /// The DDS domain id.
+    pub fn domain_id(&self) -> Result<u16> {
+        Ok(self.node()?.domain_id())
+    }
+
+    /// The current value of a declared parameter (it may have been set through the
+    /// parameter services since start-up).
+    pub fn param(&self, name: &str) -> Result<ParameterValue> {
+        self.node()?
+            .get_parameter(name)
+            .ok_or_else(|| RuntimeError::Parameter {
+                name: name.to_string(),
+                reason: "not declared by this node".into(),
+            })
+    }
+
+    fn wrong_type(&self, name: &str, value: &ParameterValue, expected: &str) -> RuntimeError {
+        RuntimeError::Parameter {
+            name: name.to_string(),
+            reason: format!("expected {expected}, holds {}", type_name(value)),
+        }
+    }
+
+    /// The current value of an integer parameter.
+    pub fn param_i64(&self, name: &str) -> Result<i64> {
+        match self.param(name)? {
+            ParameterValue::Integer(i) => Ok(i),
+            other => Err(self.wrong_type(name, &other, "integer")),
+        }
+    }
+
+    /// The current value of a double parameter.
+    pub fn param_f64(&self, name: &str) -> Result<f64> {
+        match self.param(name)? {
+            ParameterValue::Double(d) => Ok(d),
+            other => Err(self.wrong_type(name, &other, "double")),
+        }
+    }
+
+    /// The current value of a bool parameter.
+    pub fn param_bool(&self, name: &str) -> Result<bool> {
+        match self.param(name)? {
+            ParameterValue::Boolean(b) => Ok(b),
+            other => Err(self.wrong_type(name, &other, "bool")),
+        }
+    }
+
+    /// The current value of a string parameter.
+    pub fn param_string(&self, name: &str) -> Result<String> {
+        match self.param(name)? {
+            ParameterValue::String(s) => Ok(s),
+            other => Err(self.wrong_type(name, &other, "string")),
+        }
+    }
+
+    /// The declared parameters.
+    pub fn param_specs(&self) -> &[ParamSpec] {
+        &self.specs
+    }
+
+    /// The final name of topic `name` for this node (expanded and remapped).
+    pub fn resolve_topic(&self, name: &str) -> Result<String> {
+        self.identity.resolve_topic(name, &self.ros_args.remaps)
+    }
+
+    fn topic<M: RosMessage>(
+        &mut self,
+        name: &str,
+        qos: &QosProfile,
+    ) -> Result<(String, ros2_client::dds::rustdds::Topic)> {
+        let resolved = self.resolve_topic(name)?;
+        let ros_name = Name::parse(&resolved).map_err(|e| RuntimeError::Name {
+            name: resolved.clone(),
+            reason: format!("{e:?}"),
+        })?;
+        let type_name = message_type_name::<M>()?;
+        let topic = self
+            .node_mut()?
+            .create_topic(&ros_name, type_name, qos)
+            .map_err(|e| middleware(&format!("topic {resolved}"), e))?;
+        Ok((resolved, topic))
+    }
+
+    /// Subscribes to topic `name` (resolved for this node) with `qos`.
+    pub fn subscribe<M>(&mut self, name: &str, qos: QosProfile) -> Result<Subscription<M>>
+    where
+        M: RosMessage + DeserializeOwned + 'static,
+    {
+        let (resolved, topic) = self.topic::<M>(name, &qos)?;
+        let subscription = self
+            .node_mut()?
+            .create_subscription(&topic, Some(qos))
+            .map_err(|e| middleware(&format!("subscription to {resolved}"), e))?;
+        log::debug!("subscribed to {resolved} ({})", M::TYPE_NAME);
+        Ok(subscription)
+    }
+
+    /// Creates a publisher on topic `name` (resolved for this node) with `qos`.
+    pub fn advertise<M>(&mut self, name: &str, qos: QosProfile) -> Result<Publisher<M>>
+    where
+        M: RosMessage + Serialize,
+    {
+        let (resolved, topic) = self.topic::<M>(name, &qos)?;
+        let publisher = self
+            .node_mut()?
+            .create_publisher(&topic, Some(qos))
+            .map_err(|e| middleware(&format!("publisher on {resolved}"), e))?;
+        log::debug!("publishing {resolved} ({})", M::TYPE_NAME);
+        Ok(publisher)
+    }
+
+    /// Serves service `name` (resolved for this node, e.g. `~/calibrate`).
+    pub fn create_server<Req, Resp>(&mut self, name: &str) -> Result<ServiceServer<Req, Resp>>
+    where
+        Req: RosMessage + Serialize + DeserializeOwned + Clone + 'static,
+        Resp: RosMessage + Serialize + DeserializeOwned + 'static,
+    {
+        let resolved = self.resolve_topic(name)?;
+        let server = service::create_server(self.node_mut()?, &resolved)?;
+        log::debug!("serving {resolved}");
+        Ok(server)
+    }
+
+    /// A client of service `name` (resolved for this node).
+    pub fn create_client<Req, Resp>(&mut self, name: &str) -> Result<ServiceClient<Req, Resp>>
+    where
+        Req: RosMessage + Serialize + DeserializeOwned + Clone + 'static,
+        Resp: RosMessage + Serialize + DeserializeOwned + 'static,
+    {
+        let resolved = self.resolve_topic(name)?;
+        service::create_client(self.node_mut()?, &resolved)
+    }
+}
+
+impl Drop for RosNode {
+    fn drop(&mut self) {
+        logging::detach_rosout();
+        // Dropping the node tells its spinner to stop.
+        self.node = None;
+        if let Some(thread) = self.spinner_thread.take()
+            && thread.join().is_err()
+        {
+            log::error!("node spinner thread panicked");
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn message_types_map_to_dds_type_names() -> Result<()> {
+        let name = message_type_name::<stereocal_msgs::sensor_msgs::Image>()?;
+        assert_eq!(name.dds_msg_type(), "sensor_msgs::msg::dds_::Image_");
+        Ok(())
+    }
+
+    #[test]
+    fn dds_options_override_the_environment() {
+        use super::super::transport::DiscoveryRange;
+        let from_env = TransportConfig {
+            socket_receive_buffer: 1 << 20,
+            socket_send_buffer: 2 << 20,
+            range: DiscoveryRange::Localhost,
+        };
+        assert_eq!(DdsOptions::default().apply(from_env.clone()), from_env);
+        let options = DdsOptions {
+            socket_receive_buffer: Some(0),
+            socket_send_buffer: None,
+        };
+        assert_eq!(
+            options.apply(from_env.clone()),
+            TransportConfig {
+                socket_receive_buffer: 0,
+                ..from_env
+            }
+        );
+    }
+}

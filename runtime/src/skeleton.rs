@@ -1,0 +1,357 @@
+//! The one node skeleton: subscribe → synchronize by stamp → bounded drop-oldest queue →
+//! worker thread → publish, and a clean shutdown.
+//!
+//! A node declares its [`Inputs`] (streams of frames, and latched inputs such as
+//! camera_info, see [`crate::sync`]), writes a [`Worker`] that handles one synchronized
+//! frame at a time and publishes what it made, and hands both to [`spin`]. The skeleton
+//! receives on the calling thread, keeps at most `queue_depth` frames waiting for the
+//! worker (the oldest is dropped and counted when the worker falls behind), answers
+//! SIGINT/SIGTERM by letting the worker finish the frame at hand, logs what happened to
+//! every frame, and removes the node's readers before the node and its DDS participant.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
+
+use futures::stream::LocalBoxStream;
+use futures::{FutureExt, StreamExt};
+use ros2_client::{Gid, QosProfile, Subscription};
+use serde::de::DeserializeOwned;
+use stereocal_msgs::RosMessage;
+use stereocal_msgs::builtin_interfaces::Time;
+
+use crate::error::{Result, RuntimeError};
+use crate::node::RosNode;
+use crate::queue::DropOldestQueue;
+use crate::sequence_gaps::SequenceGaps;
+use crate::stamp::Stamped;
+use crate::sync::{SyncPolicy, Synced, Synchronizer};
+use crate::throttle::Throttle;
+
+/// What one input delivered.
+enum Incoming<F, C> {
+    Frame {
+        stream: usize,
+        stamp: Time,
+        frame: F,
+        publisher: Gid,
+        sequence: i64,
+    },
+    Latched {
+        input: usize,
+        stamp: Time,
+        item: C,
+    },
+    Undecodable {
+        topic: String,
+        error: String,
+    },
+}
+
+/// A subscription feeding the synchronizer.
+trait Source<F, C> {
+    fn incoming(&self) -> LocalBoxStream<'_, Incoming<F, C>>;
+}
+
+struct StreamSource<M: 'static> {
+    topic: String,
+    stream: usize,
+    subscription: Subscription<M>,
+}
+
+impl<M, F, C> Source<F, C> for StreamSource<M>
+where
+    M: Stamped + Into<F> + DeserializeOwned + 'static,
+{
+    fn incoming(&self) -> LocalBoxStream<'_, Incoming<F, C>> {
+        let stream = self.stream;
+        self.subscription
+            .async_stream()
+            .map(move |message| match message {
+                Ok((message, info)) => Incoming::Frame {
+                    stream,
+                    stamp: message.stamp(),
+                    frame: message.into(),
+                    publisher: info.publisher_gid(),
+                    sequence: info.sequence_number(),
+                },
+                Err(e) => Incoming::Undecodable {
+                    topic: self.topic.clone(),
+                    error: e.to_string(),
+                },
+            })
+            .boxed_local()
+    }
+}
+
+struct LatchedSource<M: 'static> {
+    topic: String,
+    input: usize,
+    subscription: Subscription<M>,
+}
+
+impl<M, F, C> Source<F, C> for LatchedSource<M>
+where
+    M: Stamped + Into<C> + DeserializeOwned + 'static,
+{
+    fn incoming(&self) -> LocalBoxStream<'_, Incoming<F, C>> {
+        let input = self.input;
+        self.subscription
+            .async_stream()
+            .map(move |message| match message {
+                Ok((message, _)) => Incoming::Latched {
+                    input,
+                    stamp: message.stamp(),
+                    item: message.into(),
+                },
+                Err(e) => Incoming::Undecodable {
+                    topic: self.topic.clone(),
+                    error: e.to_string(),
+                },
+            })
+            .boxed_local()
+    }
+}
+
+/// A node's subscriptions and how their messages are synchronized: streams of frames
+/// `F` (the images of each camera) and latched inputs `C` (their camera_info).
+pub struct Inputs<F, C> {
+    sources: Vec<Box<dyn Source<F, C>>>,
+    streams: usize,
+    latched: usize,
+    policy: SyncPolicy,
+}
+
+impl<F: 'static, C: 'static> Inputs<F, C> {
+    /// No inputs yet, synchronized with `policy`.
+    pub fn new(policy: SyncPolicy) -> Self {
+        Self {
+            sources: Vec::new(),
+            streams: 0,
+            latched: 0,
+            policy,
+        }
+    }
+
+    /// Subscribes stream `topic` (resolved for `node`): its frames are matched with the
+    /// other streams' by stamp. Streams are numbered in the order they are added.
+    pub fn stream<M>(mut self, node: &mut RosNode, topic: &str, qos: QosProfile) -> Result<Self>
+    where
+        M: RosMessage + Stamped + Into<F> + DeserializeOwned + 'static,
+    {
+        let subscription = node.subscribe::<M>(topic, qos)?;
+        self.sources.push(Box::new(StreamSource {
+            topic: node.resolve_topic(topic)?,
+            stream: self.streams,
+            subscription,
+        }));
+        self.streams += 1;
+        Ok(self)
+    }
+
+    /// Subscribes latched input `topic` (resolved for `node`): every synchronized set
+    /// takes its item of the set's stamp, or its latest. Latched inputs are numbered in
+    /// the order they are added.
+    pub fn latched<M>(mut self, node: &mut RosNode, topic: &str, qos: QosProfile) -> Result<Self>
+    where
+        M: RosMessage + Stamped + Into<C> + DeserializeOwned + 'static,
+    {
+        let subscription = node.subscribe::<M>(topic, qos)?;
+        self.sources.push(Box::new(LatchedSource {
+            topic: node.resolve_topic(topic)?,
+            input: self.latched,
+            subscription,
+        }));
+        self.latched += 1;
+        Ok(self)
+    }
+}
+
+/// Frame counters of a running node, kept by the receiving side and read by the worker
+/// (for a status topic) and the shutdown log.
+#[derive(Debug, Default)]
+pub struct FrameStats {
+    received: AtomicU64,
+    dropped: AtomicU64,
+    unpaired: AtomicU64,
+    inexact: AtomicU64,
+    lost: AtomicU64,
+}
+
+impl FrameStats {
+    /// Synchronized frames handed to the worker's queue.
+    pub fn received(&self) -> u64 {
+        self.received.load(Ordering::Relaxed)
+    }
+
+    /// Frames dropped from the queue because the worker was busy.
+    pub fn dropped(&self) -> u64 {
+        self.dropped.load(Ordering::Relaxed)
+    }
+
+    /// Stream frames that found no partner (and sets that found no latched item).
+    pub fn unpaired(&self) -> u64 {
+        self.unpaired.load(Ordering::Relaxed)
+    }
+
+    /// Frames given a latched item (camera_info) of another stamp.
+    pub fn inexact(&self) -> u64 {
+        self.inexact.load(Ordering::Relaxed)
+    }
+
+    /// Stream messages lost before they reached the node (gaps in their publishers'
+    /// sequence numbers).
+    pub fn lost(&self) -> u64 {
+        self.lost.load(Ordering::Relaxed)
+    }
+}
+
+/// The part of a node that works on its frames, on a thread of its own.
+pub trait Worker: Send + 'static {
+    /// One frame's work, as [`spin`]'s `prepare` makes it from a synchronized set.
+    type Work: Send + 'static;
+
+    /// Name of the worker's thread, and of the worker in logs.
+    const NAME: &'static str;
+
+    /// Longest wait for work before [`Worker::poll`] runs again.
+    const POLL: Duration = Duration::from_millis(100);
+
+    /// Runs once on the worker's thread before any frame (e.g. to publish a first status).
+    fn start(&mut self, _stats: &FrameStats) {}
+
+    /// Handles one frame.
+    fn handle(&mut self, work: Self::Work, stats: &FrameStats);
+
+    /// Runs after every frame and at least every [`Worker::POLL`] (e.g. to answer
+    /// service requests).
+    fn poll(&mut self, _stats: &FrameStats) {}
+
+    /// What the worker did, for the shutdown log, starting with a count
+    /// (e.g. `12 published`).
+    fn summary(&self) -> String;
+}
+
+/// Runs `node` until SIGINT/SIGTERM: receives `inputs`, synchronizes them, turns every
+/// synchronized set into work with `prepare` (on the receiving thread, which may read
+/// the node's parameters), and has `worker` handle it on its own thread, with at most
+/// `queue_depth` frames waiting (the oldest dropped and counted). On the stop request
+/// the worker finishes what is queued, the counts are logged, and the node's readers
+/// are removed before the node.
+pub fn spin<F, C, W, P>(
+    node: RosNode,
+    inputs: Inputs<F, C>,
+    queue_depth: usize,
+    mut worker: W,
+    mut prepare: P,
+) -> Result<()>
+where
+    F: 'static,
+    C: 'static,
+    W: Worker,
+    P: FnMut(&RosNode, Synced<F, C>) -> W::Work,
+{
+    let queue = Arc::new(DropOldestQueue::<W::Work>::new(queue_depth));
+    let stats = Arc::new(FrameStats::default());
+    let thread = {
+        let queue = Arc::clone(&queue);
+        let stats = Arc::clone(&stats);
+        std::thread::Builder::new()
+            .name(W::NAME.into())
+            .spawn(move || {
+                worker.start(&stats);
+                loop {
+                    match queue.pop_timeout(W::POLL) {
+                        Some(work) => worker.handle(work, &stats),
+                        None if queue.is_closed() => break,
+                        None => {}
+                    }
+                    worker.poll(&stats);
+                }
+                worker
+            })
+            .map_err(|e| {
+                RuntimeError::Middleware(format!("starting the {} thread: {e}", W::NAME))
+            })?
+    };
+
+    let shutdown = node.shutdown();
+    let mut sync = Synchronizer::<F, C>::new(inputs.streams, inputs.latched, inputs.policy);
+    let mut gaps = SequenceGaps::default();
+    let mut throttle = Throttle::default();
+    futures::executor::block_on(async {
+        let mut incoming =
+            futures::stream::select_all(inputs.sources.iter().map(|source| source.incoming()));
+        let mut stop = shutdown.wait().fuse();
+        loop {
+            let message = futures::select! {
+                message = incoming.select_next_some() => message,
+                () = stop => break,
+            };
+            let synced = match message {
+                Incoming::Frame {
+                    stream,
+                    stamp,
+                    frame,
+                    publisher,
+                    sequence,
+                } => {
+                    if gaps.record(publisher, sequence) > 0 {
+                        stats.lost.store(gaps.missed(), Ordering::Relaxed);
+                        throttle.warn(format!(
+                            "{} message(s) lost before reception so far",
+                            gaps.missed()
+                        ));
+                    }
+                    sync.push_stream(stream, stamp, frame)
+                }
+                Incoming::Latched { input, stamp, item } => sync.push_latched(input, stamp, item),
+                Incoming::Undecodable { topic, error } => {
+                    throttle.warn(format!("undecodable message on {topic}: {error}"));
+                    Vec::new()
+                }
+            };
+            stats.unpaired.store(sync.unpaired(), Ordering::Relaxed);
+            stats.inexact.store(sync.inexact(), Ordering::Relaxed);
+            for set in synced {
+                stats.received.fetch_add(1, Ordering::Relaxed);
+                if queue.push(prepare(&node, set)).is_some() {
+                    stats.dropped.store(queue.dropped(), Ordering::Relaxed);
+                    throttle.warn(format!(
+                        "{} falls behind: {} frame(s) dropped so far",
+                        W::NAME,
+                        queue.dropped()
+                    ));
+                }
+            }
+        }
+    });
+
+    shutdown.request();
+    queue.close();
+    let done = match thread.join() {
+        Ok(worker) => worker.summary(),
+        Err(_) => {
+            log::error!("the {} thread panicked", W::NAME);
+            "the worker stopped".to_owned()
+        }
+    };
+    let latched = if inputs.latched > 0 {
+        format!(", {} with a camera_info of another stamp", stats.inexact())
+    } else {
+        String::new()
+    };
+    log::info!(
+        "shutting down: {} frame(s) received, {done}, {} dropped while the {} thread was busy, \
+         {} lost before reception, {} without a partner{latched}",
+        stats.received(),
+        stats.dropped(),
+        W::NAME,
+        stats.lost(),
+        stats.unpaired(),
+    );
+    // Readers go before the node and its DDS participant, which must remove them.
+    drop(inputs);
+    drop(node);
+    Ok(())
+}

@@ -1,0 +1,431 @@
+//! End to end over DDS on loopback: the built `rectify_node` binary, on its own ROS
+//! domain, rectifies what this test publishes exactly as the rectify stage does, serves
+//! its parameters through the ROS 2 parameter services, and stops cleanly on SIGTERM.
+
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use ros2_client::parameters::raw;
+use ros2_client::rcl_interfaces::{
+    DescribeParametersRequest, DescribeParametersResponse, GetParametersRequest,
+    GetParametersResponse, ListParametersRequest, ListParametersResponse, SetParametersRequest,
+    SetParametersResponse,
+};
+use ros2_client::service::Client;
+use ros2_client::{
+    Log, Message, Name, Node, Parameter, ParameterValue, QosProfile, ServiceMapping,
+    ServiceTypeName,
+};
+use stereocal::rectify::stage::{Rectified, Rectifier};
+use stereocal_msgs::builtin_interfaces::Time;
+use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
+use stereocal_msgs::std_msgs::Header;
+use stereocal_runtime::qos;
+use stereocal_runtime::testing::{DomainLease, NodeProcess, PeerNode, block_on_timeout};
+use stereocal_runtime::transport::TransportConfig;
+use stereocal_vision::rectify::RemapOptions;
+
+const WIDTH: u32 = 320;
+const HEIGHT: u32 = 240;
+const TIMEOUT: Duration = Duration::from_secs(20);
+
+/// Starts `rectify_node` in namespace `/cam` on `domain`, with `extra` ROS arguments.
+fn start_node(domain: &DomainLease, extra: &[&str]) -> NodeProcess {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_rectify_node"));
+    command
+        .args(["--ros-args", "-r", "__ns:=/cam", "-r", "image:=image_raw"])
+        .args(extra);
+    NodeProcess::spawn(command, domain.id()).expect("rectify_node starts")
+}
+
+/// This test's own node on `domain`, with RustDDS's default transport.
+fn test_node(domain: &DomainLease, name: &str) -> PeerNode {
+    PeerNode::new(
+        &TransportConfig::rustdds_defaults(),
+        domain.id(),
+        "/test",
+        name,
+    )
+    .expect("test node")
+}
+
+fn camera_info(stamp: Time) -> CameraInfo {
+    let angle: f64 = 0.03;
+    let (s, c) = angle.sin_cos();
+    CameraInfo {
+        header: Header {
+            stamp,
+            frame_id: "cam_optical".into(),
+        },
+        width: WIDTH,
+        height: HEIGHT,
+        distortion_model: "plumb_bob".into(),
+        d: vec![-0.25, 0.08, 0.001, -0.0005, 0.0],
+        k: [260.0, 0.0, 161.5, 0.0, 262.0, 118.5, 0.0, 0.0, 1.0],
+        r: [c, 0.0, s, 0.0, 1.0, 0.0, -s, 0.0, c],
+        p: [
+            240.0, 0.0, 158.0, 0.0, 0.0, 240.0, 121.0, 0.0, 0.0, 0.0, 1.0, 0.0,
+        ],
+        ..CameraInfo::default()
+    }
+}
+
+fn image(stamp: Time, rgb: bool, seed: u32) -> Image {
+    let channels = if rgb { 3 } else { 1 };
+    let step = WIDTH * channels;
+    let data = (0..HEIGHT)
+        .flat_map(|y| {
+            (0..step).map(move |i| {
+                let x = i / channels;
+                let checker = ((x / 20 + y / 20) % 2) * 160;
+                (checker + (x * 3 + y * 5 + i % channels * 40 + seed * 11) % 90) as u8
+            })
+        })
+        .collect();
+    Image {
+        header: Header {
+            stamp,
+            frame_id: "cam_optical".into(),
+        },
+        height: HEIGHT,
+        width: WIDTH,
+        encoding: if rgb { "rgb8" } else { "mono8" }.into(),
+        is_bigendian: 0,
+        step,
+        data,
+    }
+}
+
+#[test]
+fn rectifies_every_frame_like_the_stage_and_stops_on_sigterm() {
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let process = start_node(&domain, &["-p", "interpolation:=1"]);
+    let mut peer = test_node(&domain, "frames");
+    let rosout_topic = peer.context().get_rosout_topic();
+    let rosout = peer
+        .node_mut()
+        .create_subscription::<Log>(&rosout_topic, None)
+        .expect("rosout subscription");
+    let image_pub = peer
+        .publisher::<Image>("/cam/image_raw", qos::reliable(10))
+        .expect("image publisher");
+    let info_pub = peer
+        .publisher::<CameraInfo>("/cam/camera_info", qos::reliable(10))
+        .expect("camera_info publisher");
+    let rect_sub = peer
+        .subscription::<Image>("/cam/image_rect", qos::reliable(50))
+        .expect("image_rect subscription");
+
+    let matched = block_on_timeout(
+        async {
+            image_pub.wait_for_subscription(peer.node()).await;
+            info_pub.wait_for_subscription(peer.node()).await;
+            rect_sub.wait_for_publisher(peer.node()).await;
+        },
+        TIMEOUT,
+    );
+    assert!(matched.is_some(), "rectify_node was not discovered");
+
+    // Our writers may know the node's readers before those know our writers, and a
+    // best-effort reader ignores samples of writers it has not matched yet: warm up
+    // until a frame makes the whole round trip.
+    let warm_up = Instant::now() + TIMEOUT;
+    let mut round_trip = false;
+    for k in 0u32.. {
+        if round_trip || Instant::now() > warm_up {
+            break;
+        }
+        let stamp = Time { sec: 1, nanosec: k };
+        info_pub
+            .publish(camera_info(stamp))
+            .expect("publish camera_info");
+        image_pub
+            .publish(image(stamp, false, 0))
+            .expect("publish image");
+        std::thread::sleep(Duration::from_millis(200));
+        while let Ok(Some(_)) = rect_sub.take() {
+            round_trip = true;
+        }
+    }
+    assert!(
+        round_trip,
+        "no frame made the round trip through rectify_node"
+    );
+
+    // Mono and colour frames, and one whose step disagrees with its width: the node
+    // must log it and keep going.
+    let mut expected = Vec::new();
+    let mut rectifier = Rectifier::new(RemapOptions::default());
+    for i in 1..=12u32 {
+        let stamp = Time {
+            sec: 100,
+            nanosec: i * 1_000_000,
+        };
+        let mut frame = image(stamp, i % 4 == 0, i);
+        let info = camera_info(stamp);
+        if i == 6 {
+            frame.step += 1;
+        } else {
+            match rectifier.rectify(&frame, &info) {
+                Ok(Rectified::Image(rect)) => expected.push(rect),
+                other => panic!("the stage did not rectify frame {i}: {other:?}"),
+            }
+        }
+        info_pub.publish(info).expect("publish camera_info");
+        image_pub.publish(frame).expect("publish image");
+        std::thread::sleep(Duration::from_millis(80));
+    }
+
+    let mut received: Vec<Image> = Vec::new();
+    let deadline = Instant::now() + TIMEOUT;
+    while received.len() < expected.len() && Instant::now() < deadline {
+        match rect_sub.take() {
+            Ok(Some((image, _))) if image.header.stamp.sec == 1 => {}
+            Ok(Some((image, _))) => received.push(image),
+            Ok(None) => std::thread::sleep(Duration::from_millis(10)),
+            Err(e) => panic!("image_rect did not decode: {e:?}"),
+        }
+    }
+    let mut logged = Vec::new();
+    while let Ok(Some((log, _))) = rosout.take() {
+        logged.push(log);
+    }
+    let exit = process.terminate();
+    let stderr = exit.logs.as_str();
+    assert!(exit.clean(), "rectify_node failed on SIGTERM:\n{stderr}");
+    let stamps: Vec<u32> = received
+        .iter()
+        .map(|i| i.header.stamp.nanosec / 1_000_000)
+        .collect();
+    assert_eq!(
+        received.len(),
+        expected.len(),
+        "frames missing from image_rect, got {stamps:?}:\n{stderr}"
+    );
+    for (got, want) in received.iter().zip(&expected) {
+        assert_eq!(got.header, want.header);
+        assert_eq!(got.encoding, want.encoding);
+        assert_eq!(
+            (got.width, got.height, got.step),
+            (want.width, want.height, want.step)
+        );
+        assert!(
+            got.data == want.data,
+            "pixels of frame {:?} differ",
+            got.header.stamp
+        );
+    }
+    assert!(
+        logged.iter().any(|log| log.name == "cam.rectify_node"
+            && log.level == Log::WARN
+            && log.msg.contains("not rectified")),
+        "bad frame not reported on /rosout: {logged:?}"
+    );
+    assert!(
+        stderr.contains("not rectified"),
+        "bad frame not reported:\n{stderr}"
+    );
+    // Every frame that reached the node was published, except the bad one.
+    let summary = stderr
+        .split("shutting down: ")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no summary:\n{stderr}"));
+    let numbers: Vec<u64> = summary
+        .split(' ')
+        .filter_map(|word| word.trim_end_matches(',').parse().ok())
+        .collect();
+    let (received_by_node, published, dropped) = (numbers[0], numbers[1], numbers[2]);
+    assert_eq!(published + 1, received_by_node, "{summary}");
+    assert_eq!(dropped, 0, "{summary}");
+}
+
+fn service_qos() -> QosProfile {
+    qos::reliable(1)
+}
+
+fn client<Req, Resp>(node: &mut Node, service: &str, type_name: &str) -> Client<Req, Resp>
+where
+    Req: Message + Clone + 'static,
+    Resp: Message + 'static,
+{
+    node.create_client::<Req, Resp>(
+        ServiceMapping::Enhanced,
+        &Name::new("/cam/rectify_node", service).expect("service name"),
+        &ServiceTypeName::new("rcl_interfaces", type_name),
+        service_qos(),
+        service_qos(),
+    )
+    .expect("client")
+}
+
+fn call<Req, Resp>(node: &Node, client: &Client<Req, Resp>, request: Req) -> Resp
+where
+    Req: Message + Clone + 'static,
+    Resp: Message + 'static,
+{
+    let found = block_on_timeout(client.wait_for_service(node), TIMEOUT);
+    assert!(found.is_some(), "parameter service not discovered");
+    // A reply sent before the server has matched our response reader is lost (the
+    // service topics are volatile), so a call that goes unanswered is repeated.
+    for _ in 0..10 {
+        let response = block_on_timeout(
+            client.async_call_service(request.clone()),
+            Duration::from_secs(2),
+        );
+        match response {
+            Some(Ok(response)) => return response,
+            Some(Err(e)) => panic!("service call failed: {e:?}"),
+            None => continue,
+        }
+    }
+    panic!("parameter service never answered")
+}
+
+fn set(
+    node: &Node,
+    client: &Client<SetParametersRequest, SetParametersResponse>,
+    name: &str,
+    value: ParameterValue,
+) -> raw::SetParametersResult {
+    let mut response = call(
+        node,
+        client,
+        SetParametersRequest {
+            parameter: vec![
+                Parameter {
+                    name: name.into(),
+                    value,
+                }
+                .into(),
+            ],
+        },
+    );
+    response.results.pop().expect("one result")
+}
+
+#[test]
+fn parameters_are_served_and_checked() {
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let params_file = tempfile::NamedTempFile::new().expect("temp file");
+    std::fs::write(
+        params_file.path(),
+        "/**:\n  ros__parameters:\n    queue_size: 7\n/cam/rectify_node:\n  ros__parameters:\n    interpolation: 2\n",
+    )
+    .expect("write params file");
+    let path = params_file.path().to_string_lossy().into_owned();
+    let process = start_node(&domain, &["--params-file", &path]);
+    let mut peer = test_node(&domain, "params");
+
+    let list = client::<ListParametersRequest, ListParametersResponse>(
+        peer.node_mut(),
+        "list_parameters",
+        "ListParameters",
+    );
+    let names = call(
+        peer.node(),
+        &list,
+        ListParametersRequest {
+            prefixes: vec![],
+            depth: 0,
+        },
+    )
+    .result
+    .names;
+    for name in ["interpolation", "queue_size", "use_sim_time"] {
+        assert!(
+            names.iter().any(|n| n == name),
+            "{name} not listed: {names:?}"
+        );
+    }
+
+    let get = client::<GetParametersRequest, GetParametersResponse>(
+        peer.node_mut(),
+        "get_parameters",
+        "GetParameters",
+    );
+    let get_values = |node: &Node| -> Vec<ParameterValue> {
+        call(
+            node,
+            &get,
+            GetParametersRequest {
+                names: vec!["interpolation".into(), "queue_size".into()],
+            },
+        )
+        .values
+        .into_iter()
+        .map(ParameterValue::from)
+        .collect()
+    };
+    assert_eq!(
+        get_values(peer.node()),
+        vec![ParameterValue::Integer(2), ParameterValue::Integer(7)]
+    );
+
+    let describe = client::<DescribeParametersRequest, DescribeParametersResponse>(
+        peer.node_mut(),
+        "describe_parameters",
+        "DescribeParameters",
+    );
+    let descriptors = call(
+        peer.node(),
+        &describe,
+        DescribeParametersRequest {
+            names: vec!["interpolation".into()],
+        },
+    )
+    .values;
+    assert_eq!(descriptors.len(), 1);
+    assert_eq!(descriptors[0].name, "interpolation");
+    assert_eq!(
+        descriptors[0].r#type, 2,
+        "interpolation is an integer parameter"
+    );
+
+    let setter = client::<SetParametersRequest, SetParametersResponse>(
+        peer.node_mut(),
+        "set_parameters",
+        "SetParameters",
+    );
+    let wrong_type = set(
+        peer.node(),
+        &setter,
+        "interpolation",
+        ParameterValue::String("cubic".into()),
+    );
+    assert!(!wrong_type.successful);
+    assert!(
+        wrong_type.reason.contains("type"),
+        "reason: {}",
+        wrong_type.reason
+    );
+    let out_of_range = set(
+        peer.node(),
+        &setter,
+        "interpolation",
+        ParameterValue::Integer(3),
+    );
+    assert!(!out_of_range.successful);
+    assert!(
+        out_of_range.reason.contains("out of range 0..=2"),
+        "reason: {}",
+        out_of_range.reason
+    );
+    let accepted = set(
+        peer.node(),
+        &setter,
+        "interpolation",
+        ParameterValue::Integer(0),
+    );
+    assert!(accepted.successful, "reason: {}", accepted.reason);
+    assert_eq!(
+        get_values(peer.node()),
+        vec![ParameterValue::Integer(0), ParameterValue::Integer(7)]
+    );
+
+    let exit = process.terminate();
+    assert!(
+        exit.clean(),
+        "rectify_node failed on SIGTERM:\n{}",
+        exit.logs
+    );
+}
