@@ -3,11 +3,5 @@
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    match stereocal::calibrate::node::run(std::env::args().skip(1)) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("calibrate_node: {e:#}");
-            ExitCode::FAILURE
-        }
-    }
+    stereocal::cli::node::executable_main("calibrate_node", stereocal::calibrate::node::run)
 }

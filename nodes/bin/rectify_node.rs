@@ -3,11 +3,5 @@
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
-    match stereocal::rectify::node::run(std::env::args().skip(1)) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("rectify_node: {e:#}");
-            ExitCode::FAILURE
-        }
-    }
+    stereocal::cli::node::executable_main("rectify_node", stereocal::rectify::node::run)
 }

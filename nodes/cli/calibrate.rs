@@ -78,6 +78,30 @@ pub struct CalibrateArgs {
     pub json: bool,
 }
 
+impl CalibrateArgs {
+    /// The arguments for a `cols x rows` chessboard (inner corners) of `square` metres in
+    /// `bag`, written to `out`, with every other option at its default (the image topics
+    /// chosen from the bag, plumb_bob).
+    pub fn chessboard(bag: PathBuf, out: PathBuf, cols: usize, rows: usize, square: f64) -> Self {
+        Self {
+            bag,
+            out,
+            pattern: "chessboard".to_owned(),
+            size: format!("{cols}x{rows}"),
+            square: square.to_string(),
+            charuco: CharucoArgs::default(),
+            topic: None,
+            left: None,
+            right: None,
+            model: DistortionModel::PlumbBob,
+            name: "camera".to_owned(),
+            max_blur: DEFAULT_MAX_BLUR,
+            max_board_speed: 0.0,
+            json: false,
+        }
+    }
+}
+
 /// The marker options of a ChArUco target, as ROS camera_calibration names them.
 #[derive(clap::Args, Clone, Debug, Default)]
 pub struct CharucoArgs {
@@ -157,13 +181,7 @@ pub fn calibrate_bag(
     let reader = BagReader::open(&args.bag)
         .with_context(|| format!("opening the bag {}", args.bag.display()))?;
     let cameras = choose_cameras(&reader, args)?;
-    progress.set_length(
-        cameras
-            .iter()
-            .filter_map(|c| reader.topic(&c.topic))
-            .map(|t| t.message_count)
-            .sum(),
-    );
+    progress.set_length(reader.topics_message_count(cameras.iter().map(|c| c.topic.as_str())));
     let frames = judge_bag_frames(&reader, &cameras, detector.as_ref(), &checks, progress)?;
     let outcome = match frames.as_slice() {
         [mono] => CalibrationOutcome {
@@ -216,12 +234,7 @@ fn frame_checks(args: &CalibrateArgs) -> anyhow::Result<FrameChecks> {
 
 /// The cameras to calibrate: name and image topic.
 fn choose_cameras(reader: &BagReader, args: &CalibrateArgs) -> anyhow::Result<Vec<CameraTopic>> {
-    let image_topics: Vec<&str> = reader
-        .topics()
-        .iter()
-        .filter(|t| t.type_name == ImageMsg::TYPE_NAME)
-        .map(|t| t.name.as_str())
-        .collect();
+    let image_topics = reader.topics_of_type(ImageMsg::TYPE_NAME);
     let listed = if image_topics.is_empty() {
         "none".to_owned()
     } else {

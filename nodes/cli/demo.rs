@@ -7,12 +7,10 @@ use std::time::Duration;
 
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use stereocal_vision::calib::quality::DEFAULT_MAX_BLUR;
-use stereocal_vision::camera::DistortionModel;
 
 use crate::cli::calibrate::{CalibrateArgs, calibrate_bag};
 use crate::cli::rectify::{BagRectifyOptions, rectify_bag};
-use crate::cli::synth::{ModelArg, SceneArg, SynthArgs};
+use crate::cli::synth::{SceneArg, SynthArgs};
 use crate::convert::calibrated_camera_from_info;
 use crate::rectify::replay::{NodeReplay, ReplayOutcome, replay_through_rectify_nodes};
 use crate::rectify::row_alignment::RowAlignment;
@@ -146,37 +144,21 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
 fn calibration_session(out: &Path, kept: bool) -> anyhow::Result<()> {
     let dir = out.join("calibration");
     println!("\ncalibration: a synthetic stereo session, calibrated and rectified with the result");
-    crate::cli::synth::run(&SynthArgs {
-        scene: SceneArg::Calibration,
-        out: dir.clone(),
-        seed: 1,
-        frames: Some(25),
-        width: 1024,
-        height: 768,
-        model: ModelArg::PlumbBob,
-        bad_frames: None,
-        rgb: false,
-        vertical: false,
-    })?;
+    crate::cli::synth::run(&SynthArgs::new(SceneArg::Calibration, dir.clone(), 1, 25))?;
     let mut scene = StereoScene::open(&dir)?;
     let board = scene.truth.board;
     let bad = scene.truth.frames.len() - scene.clean_frames();
     let report = calibrate_bag(
         &CalibrateArgs {
-            bag: scene.bag.clone(),
-            out: dir.join("result"),
-            pattern: "chessboard".into(),
-            size: format!("{}x{}", board.cols, board.rows),
-            square: board.square_size.to_string(),
-            charuco: Default::default(),
-            topic: None,
             left: Some(format!("{LEFT}/image_raw")),
             right: Some(format!("{RIGHT}/image_raw")),
-            model: DistortionModel::PlumbBob,
-            name: "camera".into(),
-            max_blur: DEFAULT_MAX_BLUR,
-            max_board_speed: 0.0,
-            json: false,
+            ..CalibrateArgs::chessboard(
+                scene.bag.clone(),
+                dir.join("result"),
+                board.cols,
+                board.rows,
+                board.square_size,
+            )
         },
         &ProgressBar::hidden(),
     )?;
@@ -266,16 +248,10 @@ fn bundled_or_synthesized(out: &Path) -> anyhow::Result<PathBuf> {
 /// The `stereocal synth` arguments of the bundled stereo scene.
 pub fn bundled_stereo_args(out: PathBuf) -> SynthArgs {
     SynthArgs {
-        scene: SceneArg::Stereo,
-        out,
-        seed: 1,
-        frames: Some(8),
         width: 640,
         height: 480,
-        model: ModelArg::PlumbBob,
         bad_frames: Some(0.0),
-        rgb: false,
-        vertical: false,
+        ..SynthArgs::new(SceneArg::Stereo, out, 1, 8)
     }
 }
 

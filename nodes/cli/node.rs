@@ -1,5 +1,8 @@
 //! `stereocal node NAME [--ros-args ...]`: runs one of the nodes in this process,
-//! exactly as its own executable would be run by `ros2 launch`.
+//! exactly as its own executable would be run by `ros2 launch`; and the `main` of those
+//! executables.
+
+use std::process::ExitCode;
 
 /// The nodes `stereocal node` runs.
 #[derive(clap::Subcommand, Debug)]
@@ -24,5 +27,20 @@ pub fn run(command: NodeCommand) -> anyhow::Result<()> {
     match command {
         NodeCommand::Rectify { args } => crate::rectify::node::run(args),
         NodeCommand::Calibrate { args } => crate::calibrate::node::run(args),
+    }
+}
+
+/// The `main` of node executable `name`: runs `node` with the process's command line
+/// (without the program name) and exits 0, or prints why it stopped and exits 1.
+pub fn executable_main(
+    name: &str,
+    node: impl FnOnce(std::iter::Skip<std::env::Args>) -> anyhow::Result<()>,
+) -> ExitCode {
+    match node(std::env::args().skip(1)) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("{name}: {e:#}");
+            ExitCode::FAILURE
+        }
     }
 }

@@ -297,13 +297,8 @@ pub fn rectify_bag(
         copy_ids.insert(topic.name.clone(), id);
     }
     let (mut cameras, unrectified_topics) = plan_cameras(&reader, options, &mut writer)?;
-    progress.set_length(
-        cameras
-            .iter()
-            .filter_map(|c| reader.topic(&c.image_topic))
-            .map(|t| t.message_count)
-            .sum(),
-    );
+    progress
+        .set_length(reader.topics_message_count(cameras.iter().map(|c| c.image_topic.as_str())));
 
     let mut problems = Problems {
         progress,
@@ -395,12 +390,7 @@ fn plan_cameras(
     options: &BagRectifyOptions,
     writer: &mut BagWriter,
 ) -> anyhow::Result<(Vec<Camera>, Vec<UnrectifiedTopic>)> {
-    let image_topics: Vec<&str> = reader
-        .topics()
-        .iter()
-        .filter(|t| t.type_name == ImageMsg::TYPE_NAME)
-        .map(|t| t.name.as_str())
-        .collect();
+    let image_topics = reader.topics_of_type(ImageMsg::TYPE_NAME);
     for (topic, _) in &options.camera_infos {
         let names_image = image_topics.contains(&topic.as_str());
         let names_info = topic.ends_with("/camera_info")

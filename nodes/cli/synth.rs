@@ -139,6 +139,24 @@ pub fn run_command(command: &SynthCommand) -> anyhow::Result<()> {
 }
 
 impl SynthArgs {
+    /// A `scene` of `frames` frames from `seed` into `out`, with every other option at
+    /// its default (1024x768 mono8 plumb_bob, a horizontal rig, the scene's share of bad
+    /// frames).
+    pub fn new(scene: SceneArg, out: PathBuf, seed: u64, frames: usize) -> Self {
+        Self {
+            scene,
+            out,
+            seed,
+            frames: Some(frames),
+            width: 1024,
+            height: 768,
+            model: ModelArg::PlumbBob,
+            bad_frames: None,
+            rgb: false,
+            vertical: false,
+        }
+    }
+
     /// The scene these arguments describe.
     pub fn spec(&self) -> SceneSpec {
         let kind = match self.scene {

@@ -160,6 +160,25 @@ impl BagReader {
         self.topics.iter().map(|t| t.message_count).sum()
     }
 
+    /// Names of the topics carrying `type_name` (e.g. `sensor_msgs/msg/Image`), in the
+    /// bag's order.
+    pub fn topics_of_type(&self, type_name: &str) -> Vec<&str> {
+        self.topics
+            .iter()
+            .filter(|t| t.type_name == type_name)
+            .map(|t| t.name.as_str())
+            .collect()
+    }
+
+    /// Number of messages on the topics `names` (topics the bag lacks count none).
+    pub fn topics_message_count<'a>(&self, names: impl IntoIterator<Item = &'a str>) -> u64 {
+        names
+            .into_iter()
+            .filter_map(|name| self.topic(name))
+            .map(|t| t.message_count)
+            .sum()
+    }
+
     /// Damage found while opening (a truncated or corrupt file): the reader yields every
     /// message before it, then this error.
     pub fn damage(&self) -> impl Iterator<Item = &BagError> {

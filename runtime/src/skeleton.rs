@@ -15,7 +15,7 @@ use std::time::Duration;
 
 use futures::stream::LocalBoxStream;
 use futures::{FutureExt, StreamExt};
-use ros2_client::{Gid, QosProfile, Subscription};
+use ros2_client::{Gid, MessageInfo, QosProfile, Subscription};
 use serde::de::DeserializeOwned;
 use stereocal_msgs::RosMessage;
 use stereocal_msgs::builtin_interfaces::Time;
@@ -48,62 +48,31 @@ enum Incoming<F, C> {
     },
 }
 
-/// A subscription feeding the synchronizer.
-trait Source<F, C> {
+/// What a [`Source`] makes of one message it took.
+type Deliver<M, F, C> = Box<dyn Fn(M, &MessageInfo) -> Incoming<F, C>>;
+
+/// A subscription feeding the synchronizer: each message it takes becomes an
+/// [`Incoming`] through `deliver`.
+struct Source<M: 'static, F, C> {
+    topic: String,
+    subscription: Subscription<M>,
+    deliver: Deliver<M, F, C>,
+}
+
+/// The stream of what one [`Source`] delivers.
+trait Incomings<F, C> {
     fn incoming(&self) -> LocalBoxStream<'_, Incoming<F, C>>;
 }
 
-struct StreamSource<M: 'static> {
-    topic: String,
-    stream: usize,
-    subscription: Subscription<M>,
-}
-
-impl<M, F, C> Source<F, C> for StreamSource<M>
+impl<M, F, C> Incomings<F, C> for Source<M, F, C>
 where
-    M: Stamped + Into<F> + DeserializeOwned + 'static,
+    M: DeserializeOwned + 'static,
 {
     fn incoming(&self) -> LocalBoxStream<'_, Incoming<F, C>> {
-        let stream = self.stream;
         self.subscription
             .async_stream()
             .map(move |message| match message {
-                Ok((message, info)) => Incoming::Frame {
-                    stream,
-                    stamp: message.stamp(),
-                    frame: message.into(),
-                    publisher: info.publisher_gid(),
-                    sequence: info.sequence_number(),
-                },
-                Err(e) => Incoming::Undecodable {
-                    topic: self.topic.clone(),
-                    error: e.to_string(),
-                },
-            })
-            .boxed_local()
-    }
-}
-
-struct LatchedSource<M: 'static> {
-    topic: String,
-    input: usize,
-    subscription: Subscription<M>,
-}
-
-impl<M, F, C> Source<F, C> for LatchedSource<M>
-where
-    M: Stamped + Into<C> + DeserializeOwned + 'static,
-{
-    fn incoming(&self) -> LocalBoxStream<'_, Incoming<F, C>> {
-        let input = self.input;
-        self.subscription
-            .async_stream()
-            .map(move |message| match message {
-                Ok((message, _)) => Incoming::Latched {
-                    input,
-                    stamp: message.stamp(),
-                    item: message.into(),
-                },
+                Ok((message, info)) => (self.deliver)(message, &info),
                 Err(e) => Incoming::Undecodable {
                     topic: self.topic.clone(),
                     error: e.to_string(),
@@ -116,7 +85,7 @@ where
 /// A node's subscriptions and how their messages are synchronized: streams of frames
 /// `F` (the images of each camera) and latched inputs `C` (their camera_info).
 pub struct Inputs<F, C> {
-    sources: Vec<Box<dyn Source<F, C>>>,
+    sources: Vec<Box<dyn Incomings<F, C>>>,
     streams: usize,
     latched: usize,
     policy: SyncPolicy,
@@ -139,14 +108,15 @@ impl<F: 'static, C: 'static> Inputs<F, C> {
     where
         M: RosMessage + Stamped + Into<F> + DeserializeOwned + 'static,
     {
-        let subscription = node.subscribe::<M>(topic, qos)?;
-        self.sources.push(Box::new(StreamSource {
-            topic: node.resolve_topic(topic)?,
-            stream: self.streams,
-            subscription,
-        }));
+        let stream = self.streams;
         self.streams += 1;
-        Ok(self)
+        self.add(node, topic, qos, move |message: M, info| Incoming::Frame {
+            stream,
+            stamp: message.stamp(),
+            frame: message.into(),
+            publisher: info.publisher_gid(),
+            sequence: info.sequence_number(),
+        })
     }
 
     /// Subscribes latched input `topic` (resolved for `node`): every synchronized set
@@ -156,13 +126,31 @@ impl<F: 'static, C: 'static> Inputs<F, C> {
     where
         M: RosMessage + Stamped + Into<C> + DeserializeOwned + 'static,
     {
-        let subscription = node.subscribe::<M>(topic, qos)?;
-        self.sources.push(Box::new(LatchedSource {
-            topic: node.resolve_topic(topic)?,
-            input: self.latched,
-            subscription,
-        }));
+        let input = self.latched;
         self.latched += 1;
+        self.add(node, topic, qos, move |message: M, _| Incoming::Latched {
+            input,
+            stamp: message.stamp(),
+            item: message.into(),
+        })
+    }
+
+    fn add<M>(
+        mut self,
+        node: &mut RosNode,
+        topic: &str,
+        qos: QosProfile,
+        deliver: impl Fn(M, &MessageInfo) -> Incoming<F, C> + 'static,
+    ) -> Result<Self>
+    where
+        M: RosMessage + DeserializeOwned + 'static,
+    {
+        let subscription = node.subscribe::<M>(topic, qos)?;
+        self.sources.push(Box::new(Source {
+            topic: node.resolve_topic(topic)?,
+            subscription,
+            deliver: Box::new(deliver),
+        }));
         Ok(self)
     }
 }

@@ -6,49 +6,27 @@ use std::path::{Path, PathBuf};
 use nalgebra::{Isometry3, Matrix3};
 use stereocal::calibrate::stage::{CameraResult, StereoResult};
 use stereocal::cli::calibrate::CalibrateArgs;
-use stereocal::cli::synth::{ModelArg, SceneArg, SynthArgs, run_with_target};
+use stereocal::cli::synth::{SceneArg, SynthArgs, run_with_target};
 use stereocal_vision::board::Target;
-use stereocal_vision::calib::quality::DEFAULT_MAX_BLUR;
-use stereocal_vision::camera::{DistortionModel, Intrinsics};
+use stereocal_vision::camera::Intrinsics;
 use stereocal_vision::synth::GroundTruth;
 
 /// The `stereocal synth` arguments of a 1024x768 plumb-bob stereo calibration session
 /// of `frames` mono8 frames from `seed`, side by side, with the default share of bad
 /// frames, written into `dir`.
 pub fn calibration_scene(dir: &Path, seed: u64, frames: usize) -> SynthArgs {
-    SynthArgs {
-        scene: SceneArg::Calibration,
-        out: dir.to_path_buf(),
-        seed,
-        frames: Some(frames),
-        width: 1024,
-        height: 768,
-        model: ModelArg::PlumbBob,
-        bad_frames: None,
-        rgb: false,
-        vertical: false,
-    }
+    SynthArgs::new(SceneArg::Calibration, dir.to_path_buf(), seed, frames)
 }
 
 /// `stereocal calibrate`'s arguments for the stereo pair of a synthesized session
 /// (`/stereo/{left,right}/image_raw` in `bag`) showing the chessboard of `truth`,
 /// written to `out` with the plumb-bob model.
 pub fn calibrate_args(bag: PathBuf, out: PathBuf, truth: &GroundTruth) -> CalibrateArgs {
+    let board = &truth.board;
     CalibrateArgs {
-        bag,
-        out,
-        pattern: "chessboard".to_owned(),
-        size: format!("{}x{}", truth.board.cols, truth.board.rows),
-        square: truth.board.square_size.to_string(),
-        charuco: Default::default(),
-        topic: None,
         left: Some("/stereo/left/image_raw".to_owned()),
         right: Some("/stereo/right/image_raw".to_owned()),
-        model: DistortionModel::PlumbBob,
-        name: "camera".to_owned(),
-        max_blur: DEFAULT_MAX_BLUR,
-        max_board_speed: 0.0,
-        json: false,
+        ..CalibrateArgs::chessboard(bag, out, board.cols, board.rows, board.square_size)
     }
 }
 
