@@ -96,22 +96,12 @@ impl NodeProcess {
         })
     }
 
-    /// The process id.
-    pub fn id(&self) -> u32 {
-        self.child.id()
-    }
-
     /// What the node has written to stderr so far.
     pub fn logs(&self) -> String {
         self.stderr
             .lock()
             .unwrap_or_else(PoisonError::into_inner)
             .clone()
-    }
-
-    /// Whether the process has exited (by itself, or killed).
-    pub fn has_exited(&mut self) -> bool {
-        !matches!(self.child.try_wait(), Ok(None))
     }
 
     /// Asks the node to stop with SIGTERM and waits up to [`TERMINATE_TIMEOUT`] for it;
