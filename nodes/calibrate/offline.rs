@@ -17,7 +17,6 @@ use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::Image as ImageMsg;
 use stereocal_rosbag::{BagReader, TopicFilter};
 use stereocal_vision::board::{Detection, Gray, MIN_CHARUCO_CORNERS, Target, TargetDetector};
-use stereocal_vision::calib::View;
 use stereocal_vision::calib::quality::{EdgeLayout, FrameChecks};
 
 use super::stage::{CameraFrames, Frame, FrameCorners};
@@ -155,7 +154,7 @@ impl Judge<'_> {
             }),
             Some(detection) => match self.checks.check_sharpness(&gray, detection, &self.layout) {
                 Err(refusal) => FrameCorners::Unusable(refusal.to_string()),
-                Ok(()) => view(detection, target),
+                Ok(()) => FrameCorners::from_detection(detection, target),
             },
         };
         Some(Detected {
@@ -193,17 +192,6 @@ impl Judge<'_> {
                 }
             })
             .collect()
-    }
-}
-
-/// A detection as the calibration stage's view of the target.
-fn view(detection: &Detection, target: &Target) -> FrameCorners {
-    match detection.object_points(target) {
-        Some(points_in_target) => FrameCorners::Found(View {
-            points_in_target,
-            pixels: detection.corners.clone(),
-        }),
-        None => FrameCorners::Unusable("detected corner ids outside the board".to_owned()),
     }
 }
 

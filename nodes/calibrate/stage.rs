@@ -14,6 +14,7 @@ use serde::Serialize;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::sensor_msgs::CameraInfo;
 use stereocal_msgs::std_msgs::Header;
+use stereocal_vision::board::{Detection, Target};
 use stereocal_vision::calib::quality::RegionCoverage;
 use stereocal_vision::calib::{
     CalibError, MonoCalibration, MonoOptions, RejectedView, StereoCalibration, StereoOptions,
@@ -34,6 +35,20 @@ pub enum FrameCorners {
     Found(View),
     /// The frame cannot be used; why.
     Unusable(String),
+}
+
+impl FrameCorners {
+    /// The corners of `detection`, a detection of `target`, as target points with their
+    /// pixels; unusable when a corner id lies outside the board.
+    pub fn from_detection(detection: &Detection, target: &Target) -> Self {
+        match detection.object_points(target) {
+            Some(points_in_target) => FrameCorners::Found(View {
+                points_in_target,
+                pixels: detection.corners.clone(),
+            }),
+            None => FrameCorners::Unusable("detected corner ids outside the board".to_owned()),
+        }
+    }
 }
 
 /// One frame of one camera.

@@ -264,8 +264,8 @@ struct NodeCounts {
 }
 
 impl NodeCounts {
-    /// Reads the node's shutdown summary ("shutting down: R image(s) received, P
-    /// published, D dropped while waiting to be rectified, L lost before reception").
+    /// Reads the node's shutdown summary ("shutting down: R frame(s) received, P
+    /// published, D dropped while the rectify thread was busy, L lost before reception").
     fn from_log(log: &str) -> Option<Self> {
         let summary = log.rsplit("shutting down: ").next()?;
         let count = |label: &str| -> Option<u64> {

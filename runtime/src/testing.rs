@@ -289,22 +289,33 @@ impl DomainLease {
     /// Leases the first free domain of `range`.
     pub fn acquire(range: RangeInclusive<u16>) -> Result<Self> {
         let dir = std::env::temp_dir();
+        let mut unopened = None;
         for id in range.clone() {
             let path: PathBuf = dir.join(format!("stereocal-ros-domain-{id}.lock"));
-            let file = File::options()
+            // A lock file another user owns cannot be opened: that domain is theirs.
+            let file = match File::options()
                 .create(true)
                 .truncate(false)
                 .write(true)
                 .open(&path)
-                .map_err(|e| failure(&format!("domain lock {}", path.display()), e))?;
+            {
+                Ok(file) => file,
+                Err(e) => {
+                    unopened.get_or_insert(format!("{}: {e}", path.display()));
+                    continue;
+                }
+            };
             if file.try_lock().is_ok() {
                 return Ok(Self { id, _lock: file });
             }
         }
         Err(RuntimeError::Middleware(format!(
-            "every ROS domain of {}..={} is leased by another process",
+            "every ROS domain of {}..={} is leased by another process{}",
             range.start(),
-            range.end()
+            range.end(),
+            unopened.map_or(String::new(), |e| format!(
+                " (or its lock cannot be opened: {e})"
+            ))
         )))
     }
 

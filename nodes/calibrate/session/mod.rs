@@ -15,7 +15,6 @@ use rayon::prelude::*;
 use serde::Serialize;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_vision::board::{BoardError, Detection, Gray, Target, TargetDetector, detector_for};
-use stereocal_vision::calib::View;
 use stereocal_vision::calib::quality::{
     EdgeLayout, FrameChecks, MONO_RANGES, STEREO_RANGES, SampleParams, is_new, progress,
     sample_params,
@@ -475,7 +474,6 @@ impl CalibrationSession {
 
     /// Calibrates from the kept samples (mono or stereo via crate::calibrate::stage).
     pub fn calibrate(&self) -> Result<CalibrationOutcome, CalibrationStageError> {
-        let points = self.config.target.object_points();
         let frames: Vec<CameraFrames> = self
             .config
             .cameras
@@ -496,7 +494,10 @@ impl CalibrationSession {
                         .iter()
                         .map(|kept| Frame {
                             stamp: kept.sample.stamp,
-                            corners: view(&kept.sample.detections[k], &points),
+                            corners: FrameCorners::from_detection(
+                                &kept.sample.detections[k],
+                                &self.config.target,
+                            ),
                         })
                         .collect(),
                 }
@@ -556,22 +557,6 @@ impl CalibrationSession {
             .zip(sizes)
             .map(|(d, &(w, h))| sample_params(d, self.layout.cols, self.layout.rows, w, h))
             .collect()
-    }
-}
-
-/// A detection as the calibration stage's view of the target.
-fn view(detection: &Detection, points: &[nalgebra::Point3<f64>]) -> FrameCorners {
-    let points_in_target: Option<Vec<_>> = detection
-        .ids
-        .iter()
-        .map(|&id| points.get(id).copied())
-        .collect();
-    match points_in_target {
-        Some(points_in_target) => FrameCorners::Found(View {
-            points_in_target,
-            pixels: detection.corners.clone(),
-        }),
-        None => FrameCorners::Unusable("detected corner ids outside the board".to_owned()),
     }
 }
 
