@@ -41,6 +41,11 @@ impl Time {
     pub fn as_nanos(&self) -> i64 {
         i64::from(self.sec) * NANOS_PER_SECOND + i64::from(self.nanosec)
     }
+
+    /// Seconds from `earlier` to this time (negative when `earlier` is later).
+    pub fn seconds_since(&self, earlier: &Time) -> f64 {
+        (self.as_nanos() - earlier.as_nanos()) as f64 * 1e-9
+    }
 }
 
 ros_message!(

@@ -173,17 +173,15 @@ impl Judge<'_> {
         frames
             .map(|detected| {
                 let mut corners = detected.corners;
-                if let (FrameCorners::Found(_), Some(current)) = (&corners, &detected.detection) {
-                    let earlier = previous.as_ref().and_then(|(stamp, d)| {
-                        let interval = (detected.stamp.as_nanos() - stamp.as_nanos()) as f64 * 1e-9;
-                        d.as_ref().map(|d| (d, interval))
-                    });
-                    if let Some((earlier, interval)) = earlier
-                        && let Err(refusal) =
-                            self.checks.check_motion(Some(earlier), current, interval)
-                    {
-                        corners = FrameCorners::Unusable(refusal.to_string());
-                    }
+                if let (FrameCorners::Found(_), Some(current), Some((before, Some(earlier)))) =
+                    (&corners, &detected.detection, &previous)
+                    && let Err(refusal) = self.checks.check_motion(
+                        earlier,
+                        current,
+                        detected.stamp.seconds_since(before),
+                    )
+                {
+                    corners = FrameCorners::Unusable(refusal.to_string());
                 }
                 previous = Some((detected.stamp, detected.detection));
                 Frame {

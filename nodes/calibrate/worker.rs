@@ -14,10 +14,11 @@ use stereocal_runtime::service::{self, ServiceClient, TriggerServices};
 use stereocal_runtime::skeleton::{FrameStats, Worker};
 use stereocal_runtime::sync::Synced;
 use stereocal_runtime::throttle::Throttle;
+use stereocal_vision::calib::quality::ENOUGH_SAMPLES;
 use stereocal_vision::image::Image as VisionImage;
 
 use super::result::CalibrationResult;
-use super::session::{CalibrationSession, ENOUGH_SAMPLES, Offer, Progress, Verdict, annotate};
+use super::session::{CalibrationSession, Offer, Progress, Verdict, annotate};
 use super::settings::CalibrateSettings;
 use super::stage::CalibrationOutcome;
 use super::status::{FrameCounts, NodeStatus};
@@ -101,8 +102,7 @@ impl CalibrateWorker {
         }
     }
 
-    fn publish_status(&mut self, stats: &FrameStats) {
-        let progress = self.session.progress();
+    fn publish_status(&mut self, progress: &Progress, stats: &FrameStats) {
         let frames = FrameCounts {
             received: stats.received(),
             judged: self.judged,
@@ -110,7 +110,7 @@ impl CalibrateWorker {
             unpaired: stats.unpaired(),
         };
         let status = NodeStatus::new(
-            &progress,
+            progress,
             self.last_verdict.as_ref(),
             frames,
             self.calibrated.as_ref().map(|c| &c.result),
@@ -251,7 +251,7 @@ impl Worker for CalibrateWorker {
     const POLL: Duration = Duration::from_millis(20);
 
     fn start(&mut self, stats: &FrameStats) {
-        self.publish_status(stats);
+        self.publish_status(&self.session.progress(), stats);
     }
 
     fn handle(&mut self, frame: Self::Work, stats: &FrameStats) {
@@ -304,7 +304,7 @@ impl Worker for CalibrateWorker {
             };
             log::log!(level, "{}", answer.message);
         }
-        self.publish_status(stats);
+        self.publish_status(&progress, stats);
     }
 
     fn poll(&mut self, stats: &FrameStats) {
@@ -319,7 +319,7 @@ impl Worker for CalibrateWorker {
             self.endpoints.services.respond(call, response);
         }
         if answered {
-            self.publish_status(stats);
+            self.publish_status(&self.session.progress(), stats);
         }
     }
 

@@ -88,8 +88,22 @@ fn middleware(what: &str, e: impl std::fmt::Display) -> RuntimeError {
     RuntimeError::Middleware(format!("{what}: {e}"))
 }
 
+/// The DDS topic of messages `M` on the absolute ROS topic `name`.
+pub(crate) fn create_topic<M: RosMessage>(
+    node: &mut Node,
+    name: &str,
+    qos: &QosProfile,
+) -> Result<ros2_client::dds::rustdds::Topic> {
+    let ros_name = Name::parse(name).map_err(|e| RuntimeError::Name {
+        name: name.to_owned(),
+        reason: format!("{e:?}"),
+    })?;
+    node.create_topic(&ros_name, message_type_name::<M>()?, qos)
+        .map_err(|e| middleware(&format!("topic {name}"), e))
+}
+
 /// ROS's `pkg/msg/Type` as ros2-client's message type name.
-pub(crate) fn message_type_name<M: RosMessage>() -> Result<MessageTypeName> {
+fn message_type_name<M: RosMessage>() -> Result<MessageTypeName> {
     match M::TYPE_NAME.split('/').collect::<Vec<_>>().as_slice() {
         [package, "msg", name] => Ok(MessageTypeName::new(package, name)),
         _ => Err(RuntimeError::Name {
@@ -338,15 +352,7 @@ impl RosNode {
         qos: &QosProfile,
     ) -> Result<(String, ros2_client::dds::rustdds::Topic)> {
         let resolved = self.resolve_topic(name)?;
-        let ros_name = Name::parse(&resolved).map_err(|e| RuntimeError::Name {
-            name: resolved.clone(),
-            reason: format!("{e:?}"),
-        })?;
-        let type_name = message_type_name::<M>()?;
-        let topic = self
-            .node_mut()?
-            .create_topic(&ros_name, type_name, qos)
-            .map_err(|e| middleware(&format!("topic {resolved}"), e))?;
+        let topic = create_topic::<M>(self.node_mut()?, &resolved, qos)?;
         Ok((resolved, topic))
     }
 

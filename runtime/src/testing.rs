@@ -18,15 +18,13 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use futures::FutureExt;
-use ros2_client::{
-    Context, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Subscription,
-};
+use ros2_client::{Context, Node, NodeName, NodeOptions, Publisher, QosProfile, Subscription};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use stereocal_msgs::RosMessage;
 
 use crate::error::{Result, RuntimeError};
-use crate::node::message_type_name;
+use crate::node::create_topic;
 use crate::transport::TransportConfig;
 
 /// How long a node may take to stop after SIGTERM before it is killed.
@@ -41,7 +39,7 @@ fn failure(what: &str, e: impl std::fmt::Display) -> RuntimeError {
 pub struct NodeProcess {
     child: Child,
     name: String,
-    stderr: Arc<Mutex<String>>,
+    stderr: Arc<Mutex<Vec<u8>>>,
     reader: Option<JoinHandle<()>>,
 }
 
@@ -73,18 +71,19 @@ impl NodeProcess {
             .stderr(Stdio::piped())
             .spawn()
             .map_err(|e| failure(&format!("starting {name}"), e))?;
-        let stderr = Arc::new(Mutex::new(String::new()));
+        let stderr = Arc::new(Mutex::new(Vec::new()));
         let reader = child.stderr.take().map(|mut pipe| {
             let sink = Arc::clone(&stderr);
             std::thread::spawn(move || {
                 let mut chunk = [0u8; 4096];
                 while let Ok(n) = pipe.read(&mut chunk) {
-                    if n == 0 {
+                    let Some(read) = chunk.get(..n).filter(|read| !read.is_empty()) else {
                         break;
-                    }
+                    };
+                    // Bytes, not text: a character may be split between two reads.
                     sink.lock()
                         .unwrap_or_else(PoisonError::into_inner)
-                        .push_str(&String::from_utf8_lossy(&chunk[..n]));
+                        .extend_from_slice(read);
                 }
             })
         });
@@ -98,10 +97,8 @@ impl NodeProcess {
 
     /// What the node has written to stderr so far.
     pub fn logs(&self) -> String {
-        self.stderr
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .clone()
+        String::from_utf8_lossy(&self.stderr.lock().unwrap_or_else(PoisonError::into_inner))
+            .into_owned()
     }
 
     /// Asks the node to stop with SIGTERM and waits up to [`TERMINATE_TIMEOUT`] for it;
@@ -209,26 +206,12 @@ impl PeerNode {
         &self.context
     }
 
-    fn topic<M: RosMessage>(
-        &mut self,
-        name: &str,
-        qos: &QosProfile,
-    ) -> Result<ros2_client::dds::rustdds::Topic> {
-        let ros_name = Name::parse(name).map_err(|e| RuntimeError::Name {
-            name: name.to_owned(),
-            reason: format!("{e:?}"),
-        })?;
-        self.node
-            .create_topic(&ros_name, message_type_name::<M>()?, qos)
-            .map_err(|e| failure(&format!("topic {name}"), e))
-    }
-
     /// A publisher on the absolute topic `name`.
     pub fn publisher<M>(&mut self, name: &str, qos: QosProfile) -> Result<Publisher<M>>
     where
         M: RosMessage + Serialize,
     {
-        let topic = self.topic::<M>(name, &qos)?;
+        let topic = create_topic::<M>(&mut self.node, name, &qos)?;
         self.node
             .create_publisher(&topic, Some(qos))
             .map_err(|e| failure(&format!("publisher on {name}"), e))
@@ -239,7 +222,7 @@ impl PeerNode {
     where
         M: RosMessage + DeserializeOwned + 'static,
     {
-        let topic = self.topic::<M>(name, &qos)?;
+        let topic = create_topic::<M>(&mut self.node, name, &qos)?;
         self.node
             .create_subscription(&topic, Some(qos))
             .map_err(|e| failure(&format!("subscription to {name}"), e))

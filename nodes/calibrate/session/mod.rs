@@ -16,8 +16,8 @@ use serde::Serialize;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_vision::board::{BoardError, Detection, Gray, Target, TargetDetector, detector_for};
 use stereocal_vision::calib::quality::{
-    EdgeLayout, FrameChecks, MONO_RANGES, STEREO_RANGES, SampleParams, is_new, progress,
-    sample_params,
+    ENOUGH_SAMPLES, EdgeLayout, FrameChecks, MONO_RANGES, STEREO_RANGES, SampleParams, is_new,
+    progress, sample_params,
 };
 use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::image::Image;
@@ -29,7 +29,6 @@ use crate::calibrate::stage::{
 };
 
 pub use annotate::annotate;
-pub use stereocal_vision::calib::quality::ENOUGH_SAMPLES;
 pub use store::{STORE_FILE, Sample, store_path};
 
 /// How a session judges frames.
@@ -376,26 +375,15 @@ impl CalibrationSession {
                 sizes_text(kept)
             )));
         }
-        let previous = previous.as_ref().and_then(|(before, detections)| {
-            let interval = (stamp.as_nanos() - before.as_nanos()) as f64 * 1e-9;
-            detections.first()?.as_ref().map(|d| (d, interval))
-        });
-        for (k, ((gray, detection), camera)) in grays
-            .iter()
-            .zip(&found)
-            .zip(&self.config.cameras)
-            .enumerate()
+        let checks = &self.config.checks;
+        // Board speed is measured in the first camera, against the previous frame's.
+        if let Some((before, Some(Some(earlier)))) = previous.as_ref().map(|(t, d)| (t, d.first()))
+            && let Some(current) = found.first()
+            && let Err(refusal) = checks.check_motion(earlier, current, stamp.seconds_since(before))
         {
-            let checks = &self.config.checks;
-            let motion = match previous {
-                Some((earlier, interval)) if k == 0 => {
-                    checks.check_motion(Some(earlier), detection, interval)
-                }
-                _ => Ok(()),
-            };
-            if let Err(refusal) = motion {
-                return Ok(Verdict::Refused(refusal.to_string()));
-            }
+            return Ok(Verdict::Refused(refusal.to_string()));
+        }
+        for ((gray, detection), camera) in grays.iter().zip(&found).zip(&self.config.cameras) {
             if let Err(refusal) = checks.check_sharpness(gray, detection, &self.layout) {
                 return Ok(Verdict::Refused(format!("{camera}: {refusal}")));
             }

@@ -120,18 +120,18 @@ impl Default for FrameChecks {
 impl FrameChecks {
     /// Refuses `current` when the board moved faster than
     /// [`max_board_speed`](Self::max_board_speed) since `previous`, the same camera's
-    /// detection `interval` seconds earlier. Frames without a previous one, too far
-    /// apart, or sharing no corner pass.
+    /// detection `interval` seconds earlier. Frames too far apart, or sharing no corner,
+    /// pass.
     pub fn check_motion(
         &self,
-        previous: Option<&Detection>,
+        previous: &Detection,
         current: &Detection,
         interval: f64,
     ) -> Result<(), FrameRefusal> {
         if self.max_board_speed <= 0.0 {
             return Ok(());
         }
-        match previous.and_then(|p| board_speed(p, current, interval)) {
+        match board_speed(previous, current, interval) {
             Some(speed) if speed > self.max_board_speed => Err(FrameRefusal::Moving {
                 speed,
                 limit: self.max_board_speed,
