@@ -25,6 +25,18 @@ ts = get_typestore(Stores.ROS2_HUMBLE)
 ts.register(get_types_from_msg('sensor_msgs/CameraInfo camera_info', 'sensor_msgs/msg/SetCameraInfo_Request'))
 ts.register(get_types_from_msg('bool success\nstring status_message', 'sensor_msgs/msg/SetCameraInfo_Response'))
 ts.register(get_types_from_msg('bool success\nstring message', 'std_srvs/msg/Trigger_Response'))
+for name, fields in {
+    'ListParameters_Request': 'string[] prefixes\nuint64 depth',
+    'ListParameters_Response': 'rcl_interfaces/ListParametersResult result',
+    'GetParameters_Request': 'string[] names',
+    'GetParameters_Response': 'rcl_interfaces/ParameterValue[] values',
+    'GetParameterTypes_Response': 'uint8[] types',
+    'SetParameters_Request': 'rcl_interfaces/Parameter[] parameters',
+    'SetParameters_Response': 'rcl_interfaces/SetParametersResult[] results',
+    'SetParametersAtomically_Response': 'rcl_interfaces/SetParametersResult result',
+    'DescribeParameters_Response': 'rcl_interfaces/ParameterDescriptor[] descriptors',
+}.items():
+    ts.register(get_types_from_msg(fields, f'rcl_interfaces/msg/{name}'))
 T = ts.types
 
 
@@ -77,6 +89,45 @@ def transform():
     return T['geometry_msgs/msg/Transform'](translation=vector3(), rotation=quaternion())
 
 
+def parameter_value(kind, **value):
+    fields = dict(
+        type=kind, bool_value=False, integer_value=0, double_value=0.0, string_value='',
+        byte_array_value=np.array([], dtype=np.uint8), bool_array_value=np.array([], dtype=bool),
+        integer_array_value=np.array([], dtype=np.int64), double_array_value=np.array([], dtype=np.float64),
+        string_array_value=[])
+    fields.update(value)
+    return T['rcl_interfaces/msg/ParameterValue'](**fields)
+
+
+def parameters():
+    return [
+        T['rcl_interfaces/msg/Parameter'](name='interpolation', value=parameter_value(2, integer_value=-3)),
+        T['rcl_interfaces/msg/Parameter'](name='camera.gains', value=parameter_value(
+            8, double_array_value=np.array([0.5, -1.25]))),
+        T['rcl_interfaces/msg/Parameter'](name='names', value=parameter_value(9, string_array_value=['a', 'bc'])),
+        T['rcl_interfaces/msg/Parameter'](name='mask', value=parameter_value(
+            5, byte_array_value=np.array([1, 255], dtype=np.uint8))),
+        T['rcl_interfaces/msg/Parameter'](name='flags', value=parameter_value(
+            6, bool_array_value=np.array([True, False]))),
+        T['rcl_interfaces/msg/Parameter'](name='ids', value=parameter_value(
+            7, integer_array_value=np.array([4, -5], dtype=np.int64))),
+    ]
+
+
+def descriptors():
+    return [
+        T['rcl_interfaces/msg/ParameterDescriptor'](
+            name='interpolation', type=2, description='0 nearest, 1 linear', additional_constraints='',
+            read_only=False, dynamic_typing=False, floating_point_range=[],
+            integer_range=[T['rcl_interfaces/msg/IntegerRange'](from_value=0, to_value=2, step=1)]),
+        T['rcl_interfaces/msg/ParameterDescriptor'](
+            name='square', type=3, description='metres', additional_constraints='one of: a, b',
+            read_only=True, dynamic_typing=False,
+            floating_point_range=[T['rcl_interfaces/msg/FloatingPointRange'](from_value=0.0, to_value=1.5, step=0.0)],
+            integer_range=[]),
+    ]
+
+
 def transform_stamped(child):
     return T['geometry_msgs/msg/TransformStamped'](header=header('base'), child_frame_id=child, transform=transform())
 
@@ -111,6 +162,43 @@ SAMPLES = {
     'sensor_msgs__srv__SetCameraInfo_Response': ('sensor_msgs/msg/SetCameraInfo_Response',
                                                  T['sensor_msgs/msg/SetCameraInfo_Response'](success=True, status_message='stored')),
     'std_srvs__srv__Trigger_Request': ('std_msgs/msg/Empty', T['std_msgs/msg/Empty']()),
+    'rosgraph_msgs__msg__Clock': ('rosgraph_msgs/msg/Clock', T['rosgraph_msgs/msg/Clock'](clock=time())),
+    'rcl_interfaces__msg__ParameterEvent': ('rcl_interfaces/msg/ParameterEvent', T['rcl_interfaces/msg/ParameterEvent'](
+        stamp=time(), node='/left/rectify_node', new_parameters=parameters()[:1],
+        changed_parameters=parameters()[1:], deleted_parameters=[])),
+    'rcl_interfaces__srv__ListParameters_Request': ('rcl_interfaces/msg/ListParameters_Request',
+                                                    T['rcl_interfaces/msg/ListParameters_Request'](
+                                                        prefixes=['camera'], depth=2)),
+    'rcl_interfaces__srv__ListParameters_Response': ('rcl_interfaces/msg/ListParameters_Response',
+                                                     T['rcl_interfaces/msg/ListParameters_Response'](
+                                                         result=T['rcl_interfaces/msg/ListParametersResult'](
+                                                             names=['camera.gains', 'queue_size'],
+                                                             prefixes=['camera']))),
+    'rcl_interfaces__srv__GetParameters_Request': ('rcl_interfaces/msg/GetParameters_Request',
+                                                   T['rcl_interfaces/msg/GetParameters_Request'](
+                                                       names=['interpolation', 'nope'])),
+    'rcl_interfaces__srv__GetParameters_Response': ('rcl_interfaces/msg/GetParameters_Response',
+                                                    T['rcl_interfaces/msg/GetParameters_Response'](
+                                                        values=[p.value for p in parameters()] + [parameter_value(0)])),
+    'rcl_interfaces__srv__GetParameterTypes_Response': ('rcl_interfaces/msg/GetParameterTypes_Response',
+                                                        T['rcl_interfaces/msg/GetParameterTypes_Response'](
+                                                            types=np.array([2, 8, 0], dtype=np.uint8))),
+    'rcl_interfaces__srv__SetParameters_Request': ('rcl_interfaces/msg/SetParameters_Request',
+                                                   T['rcl_interfaces/msg/SetParameters_Request'](
+                                                       parameters=parameters())),
+    'rcl_interfaces__srv__SetParameters_Response': ('rcl_interfaces/msg/SetParameters_Response',
+                                                    T['rcl_interfaces/msg/SetParameters_Response'](results=[
+                                                        T['rcl_interfaces/msg/SetParametersResult'](
+                                                            successful=True, reason=''),
+                                                        T['rcl_interfaces/msg/SetParametersResult'](
+                                                            successful=False, reason='read-only')])),
+    'rcl_interfaces__srv__SetParametersAtomically_Response': (
+        'rcl_interfaces/msg/SetParametersAtomically_Response',
+        T['rcl_interfaces/msg/SetParametersAtomically_Response'](
+            result=T['rcl_interfaces/msg/SetParametersResult'](successful=False, reason='7 is out of range'))),
+    'rcl_interfaces__srv__DescribeParameters_Response': ('rcl_interfaces/msg/DescribeParameters_Response',
+                                                         T['rcl_interfaces/msg/DescribeParameters_Response'](
+                                                             descriptors=descriptors())),
     'std_srvs__srv__Trigger_Response': ('std_srvs/msg/Trigger_Response',
                                         T['std_srvs/msg/Trigger_Response'](success=False, message='no board')),
 }

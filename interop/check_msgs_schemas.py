@@ -34,6 +34,13 @@ TYPES = [
     'geometry_msgs/msg/TransformStamped',
     'tf2_msgs/msg/TFMessage',
     'stereo_msgs/msg/DisparityImage',
+    'rosgraph_msgs/msg/Clock',
+    'rcl_interfaces/msg/ParameterValue',
+    'rcl_interfaces/msg/Parameter',
+    'rcl_interfaces/msg/ParameterDescriptor',
+    'rcl_interfaces/msg/SetParametersResult',
+    'rcl_interfaces/msg/ListParametersResult',
+    'rcl_interfaces/msg/ParameterEvent',
 ]
 
 

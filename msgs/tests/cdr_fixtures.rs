@@ -9,6 +9,16 @@ use stereocal_msgs::cdr::{self, CdrError};
 use stereocal_msgs::geometry_msgs::{
     Point, Pose, PoseStamped, Quaternion, Transform, TransformStamped, Vector3,
 };
+use stereocal_msgs::rcl_interfaces::srv::{
+    DescribeParametersResponse, GetParameterTypesResponse, GetParametersRequest,
+    GetParametersResponse, ListParametersRequest, ListParametersResponse,
+    SetParametersAtomicallyResponse, SetParametersRequest, SetParametersResponse,
+};
+use stereocal_msgs::rcl_interfaces::{
+    FloatingPointRange, IntegerRange, ListParametersResult, Parameter, ParameterDescriptor,
+    ParameterEvent, ParameterValue, SetParametersResult, parameter_type,
+};
+use stereocal_msgs::rosgraph_msgs::Clock;
 use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
 use stereocal_msgs::sensor_msgs::{CameraInfo, CompressedImage, Image, RegionOfInterest};
 use stereocal_msgs::std_msgs::{self, Header};
@@ -374,4 +384,186 @@ fn corrupt_input_gives_errors_naming_the_offset() {
         cdr::from_bytes::<Header>(&bytes),
         Err(CdrError::Malformed { .. })
     ));
+}
+
+fn parameter(name: &str, value: ParameterValue) -> Parameter {
+    Parameter {
+        name: name.to_owned(),
+        value,
+    }
+}
+
+/// One parameter of each array type and an integer, as interop/check_msgs_cdr.py
+/// builds them.
+fn parameters() -> Vec<Parameter> {
+    vec![
+        parameter(
+            "interpolation",
+            ParameterValue {
+                type_: parameter_type::INTEGER,
+                integer_value: -3,
+                ..ParameterValue::default()
+            },
+        ),
+        parameter(
+            "camera.gains",
+            ParameterValue {
+                type_: parameter_type::DOUBLE_ARRAY,
+                double_array_value: vec![0.5, -1.25],
+                ..ParameterValue::default()
+            },
+        ),
+        parameter(
+            "names",
+            ParameterValue {
+                type_: parameter_type::STRING_ARRAY,
+                string_array_value: vec!["a".into(), "bc".into()],
+                ..ParameterValue::default()
+            },
+        ),
+        parameter(
+            "mask",
+            ParameterValue {
+                type_: parameter_type::BYTE_ARRAY,
+                byte_array_value: vec![1, 255],
+                ..ParameterValue::default()
+            },
+        ),
+        parameter(
+            "flags",
+            ParameterValue {
+                type_: parameter_type::BOOL_ARRAY,
+                bool_array_value: vec![true, false],
+                ..ParameterValue::default()
+            },
+        ),
+        parameter(
+            "ids",
+            ParameterValue {
+                type_: parameter_type::INTEGER_ARRAY,
+                integer_array_value: vec![4, -5],
+                ..ParameterValue::default()
+            },
+        ),
+    ]
+}
+
+#[test]
+fn clock_matches_rosbags() {
+    check(
+        Clock { clock: time() },
+        fixture!("rosgraph_msgs__msg__Clock"),
+    );
+}
+
+#[test]
+fn parameter_messages_match_rosbags() {
+    let all = parameters();
+    check(
+        ParameterEvent {
+            stamp: time(),
+            node: "/left/rectify_node".into(),
+            new_parameters: all[..1].to_vec(),
+            changed_parameters: all[1..].to_vec(),
+            deleted_parameters: Vec::new(),
+        },
+        fixture!("rcl_interfaces__msg__ParameterEvent"),
+    );
+    let mut values: Vec<ParameterValue> = all.iter().map(|p| p.value.clone()).collect();
+    values.push(ParameterValue::default());
+    check(
+        GetParametersResponse { values },
+        fixture!("rcl_interfaces__srv__GetParameters_Response"),
+    );
+    check(
+        SetParametersRequest { parameters: all },
+        fixture!("rcl_interfaces__srv__SetParameters_Request"),
+    );
+}
+
+#[test]
+fn parameter_services_match_rosbags() {
+    check(
+        ListParametersRequest {
+            prefixes: vec!["camera".into()],
+            depth: 2,
+        },
+        fixture!("rcl_interfaces__srv__ListParameters_Request"),
+    );
+    check(
+        ListParametersResponse {
+            result: ListParametersResult {
+                names: vec!["camera.gains".into(), "queue_size".into()],
+                prefixes: vec!["camera".into()],
+            },
+        },
+        fixture!("rcl_interfaces__srv__ListParameters_Response"),
+    );
+    check(
+        GetParametersRequest {
+            names: vec!["interpolation".into(), "nope".into()],
+        },
+        fixture!("rcl_interfaces__srv__GetParameters_Request"),
+    );
+    check(
+        GetParameterTypesResponse {
+            types: vec![2, 8, 0],
+        },
+        fixture!("rcl_interfaces__srv__GetParameterTypes_Response"),
+    );
+    check(
+        SetParametersResponse {
+            results: vec![
+                SetParametersResult {
+                    successful: true,
+                    reason: String::new(),
+                },
+                SetParametersResult {
+                    successful: false,
+                    reason: "read-only".into(),
+                },
+            ],
+        },
+        fixture!("rcl_interfaces__srv__SetParameters_Response"),
+    );
+    check(
+        SetParametersAtomicallyResponse {
+            result: SetParametersResult {
+                successful: false,
+                reason: "7 is out of range".into(),
+            },
+        },
+        fixture!("rcl_interfaces__srv__SetParametersAtomically_Response"),
+    );
+    check(
+        DescribeParametersResponse {
+            descriptors: vec![
+                ParameterDescriptor {
+                    name: "interpolation".into(),
+                    type_: parameter_type::INTEGER,
+                    description: "0 nearest, 1 linear".into(),
+                    integer_range: vec![IntegerRange {
+                        from_value: 0,
+                        to_value: 2,
+                        step: 1,
+                    }],
+                    ..ParameterDescriptor::default()
+                },
+                ParameterDescriptor {
+                    name: "square".into(),
+                    type_: parameter_type::DOUBLE,
+                    description: "metres".into(),
+                    additional_constraints: "one of: a, b".into(),
+                    read_only: true,
+                    floating_point_range: vec![FloatingPointRange {
+                        from_value: 0.0,
+                        to_value: 1.5,
+                        step: 0.0,
+                    }],
+                    ..ParameterDescriptor::default()
+                },
+            ],
+        },
+        fixture!("rcl_interfaces__srv__DescribeParameters_Response"),
+    );
 }

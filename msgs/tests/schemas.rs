@@ -6,6 +6,11 @@ use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::geometry_msgs::{
     Point, Pose, PoseStamped, Quaternion, Transform, TransformStamped, Vector3,
 };
+use stereocal_msgs::rcl_interfaces::{
+    ListParametersResult, Parameter, ParameterDescriptor, ParameterEvent, ParameterValue,
+    SetParametersResult,
+};
+use stereocal_msgs::rosgraph_msgs::Clock;
 use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
 use stereocal_msgs::sensor_msgs::{CameraInfo, CompressedImage, Image, RegionOfInterest};
 use stereocal_msgs::std_msgs::{self, Header};
@@ -43,6 +48,22 @@ fn message_schemas_match_rosbags() {
     check_schema!(TransformStamped, "geometry_msgs__msg__TransformStamped");
     check_schema!(TFMessage, "tf2_msgs__msg__TFMessage");
     check_schema!(DisparityImage, "stereo_msgs__msg__DisparityImage");
+    check_schema!(Clock, "rosgraph_msgs__msg__Clock");
+    check_schema!(ParameterValue, "rcl_interfaces__msg__ParameterValue");
+    check_schema!(Parameter, "rcl_interfaces__msg__Parameter");
+    check_schema!(
+        ParameterDescriptor,
+        "rcl_interfaces__msg__ParameterDescriptor"
+    );
+    check_schema!(
+        SetParametersResult,
+        "rcl_interfaces__msg__SetParametersResult"
+    );
+    check_schema!(
+        ListParametersResult,
+        "rcl_interfaces__msg__ListParametersResult"
+    );
+    check_schema!(ParameterEvent, "rcl_interfaces__msg__ParameterEvent");
 }
 
 #[test]

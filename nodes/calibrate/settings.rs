@@ -35,32 +35,42 @@ pub struct CalibrateSettings {
     pub camera_info_paths: Vec<PathBuf>,
 }
 
-/// Declares the node's parameters.
+/// Largest accepted target square or marker side, metres.
+const MAX_SQUARE: f64 = 10.0;
+/// Largest accepted stereo pairing slop, seconds.
+const MAX_SLOP: f64 = 10.0;
+/// Largest accepted board speed limit, pixels per second.
+const MAX_BOARD_SPEED: f64 = 100_000.0;
+/// Largest accepted blur limit, pixels.
+const MAX_BLUR: f64 = 1000.0;
+
+/// Declares the node's parameters. All are read once at start-up, so all are
+/// read-only while the node runs.
 pub fn declare(builder: NodeBuilder) -> NodeBuilder {
     let string = |name: &str, default: &str, description: &str| {
         ParamSpec::new(name, ParameterValue::String(default.into()), description)
     };
-    let double = |name: &str, default: f64, description: &str| {
-        ParamSpec::new(name, ParameterValue::Double(default), description)
+    let double = |name: &str, default: f64, max: f64, description: &str| {
+        ParamSpec::new(name, ParameterValue::Double(default), description).double_range(0.0..=max)
     };
     let boolean = |name: &str, default: bool, description: &str| {
         ParamSpec::new(name, ParameterValue::Boolean(default), description)
     };
     [
-        string("pattern", "chessboard", "calibration target: chessboard or charuco"),
+        string("pattern", "chessboard", "calibration target").one_of(&["chessboard", "charuco"]),
         string(
             "size",
             "",
             "target size COLSxROWS: a chessboard's inner corners, a ChArUco board's squares (required)",
         ),
-        double("square", 0.0, "side of one square, metres (required)"),
-        double("marker_size", 0.0, "ChArUco marker side, metres"),
+        double("square", 0.0, MAX_SQUARE, "side of one square, metres (required)"),
+        double("marker_size", 0.0, MAX_SQUARE, "ChArUco marker side, metres"),
         string("dictionary", "4x4_50", "ChArUco marker dictionary, e.g. 4x4_50, 5x5_100"),
-        string(
-            "model",
+        string("model", "plumb_bob", "distortion model").one_of(&[
             "plumb_bob",
-            "distortion model: plumb_bob, rational_polynomial or equidistant",
-        ),
+            "rational_polynomial",
+            "equidistant",
+        ]),
         boolean("stereo", false, "a stereo pair on left/image and right/image, not a camera on image"),
         string("camera_name", "camera", "mono: the camera's name"),
         string("left_camera_name", "left", "stereo: the left camera's name"),
@@ -68,16 +78,19 @@ pub fn declare(builder: NodeBuilder) -> NodeBuilder {
         double(
             "slop",
             0.0,
+            MAX_SLOP,
             "stereo: largest stamp difference of a pair, seconds; 0 pairs equal stamps only",
         ),
         double(
             "max_board_speed",
             0.0,
+            MAX_BOARD_SPEED,
             "frames whose board moves faster than this (pixels per second) are refused; 0 disables",
         ),
         double(
             "max_blur",
             DEFAULT_MAX_BLUR,
+            MAX_BLUR,
             "frames whose board edges are wider than this (10-90 % edge width, pixels) are refused; 0 disables",
         ),
         boolean("auto_calibrate", false, "calibrate once coverage is ready, without ~/calibrate"),
@@ -132,15 +145,6 @@ fn target_from_params(node: &RosNode) -> anyhow::Result<Target> {
     })
 }
 
-fn non_negative(node: &RosNode, name: &str) -> anyhow::Result<f64> {
-    let value = node.param_f64(name)?;
-    if value.is_finite() && value >= 0.0 {
-        Ok(value)
-    } else {
-        Err(param_error(name, format!("{value} must be 0 or more")))
-    }
-}
-
 /// Reads and checks the node's parameters; an error names the parameter.
 pub fn settings(node: &RosNode) -> anyhow::Result<CalibrateSettings> {
     let target = target_from_params(node)?;
@@ -181,7 +185,7 @@ pub fn settings(node: &RosNode) -> anyhow::Result<CalibrateSettings> {
         camera_info_paths
             .push(camera_info_path(&url, camera, &home).map_err(|e| param_error(url_param, e))?);
     }
-    let slop = non_negative(node, "slop")?;
+    let slop = node.param_f64("slop")?;
     let state_dir = node.param_string("state_dir")?;
     let state_dir = if state_dir.is_empty() {
         home.join("stereocal").join(&node.identity().name)
@@ -189,8 +193,8 @@ pub fn settings(node: &RosNode) -> anyhow::Result<CalibrateSettings> {
         PathBuf::from(state_dir)
     };
     let mut session = SessionConfig::new(target, cameras, model);
-    session.checks.max_board_speed = non_negative(node, "max_board_speed")?;
-    session.checks.max_blur = non_negative(node, "max_blur")?;
+    session.checks.max_board_speed = node.param_f64("max_board_speed")?;
+    session.checks.max_blur = node.param_f64("max_blur")?;
     Ok(CalibrateSettings {
         session,
         stereo,

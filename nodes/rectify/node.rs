@@ -86,7 +86,8 @@ where
                 ParameterValue::Integer(1),
                 "interpolation of rectified pixels: 0 nearest, 1 linear, 2 cubic",
             )
-            .integer_range(0..=2),
+            .integer_range(0..=2)
+            .settable_while_running(),
         )
         .param(
             ParamSpec::new(

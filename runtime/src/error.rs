@@ -30,7 +30,7 @@ pub enum RuntimeError {
         reason: String,
     },
     /// A parameter override whose value does not fit the parameter's declaration.
-    #[error("parameter {name:?}: {reason}")]
+    #[error("parameter {name}: {reason}")]
     Parameter {
         /// The parameter.
         name: String,

@@ -5,6 +5,8 @@
 //! [`args`] parses `--ros-args` (remaps, parameters, params files, log levels), [`names`]
 //! resolves node and topic names like rcl, [`params`] gives declared parameters their
 //! start-up values (from [`params_file`]s and `-p` values typed by [`param_value`]),
+//! [`param_store`] holds them while the node runs and [`param_services`] serves them
+//! (the six parameter services with full descriptors, and `/parameter_events`),
 //! [`qos`] holds the QoS profiles of DESIGN.md, [`stamp`] the one stamp type, [`sync`]
 //! synchronizes a node's inputs by stamp (streams with each other, camera_info with
 //! them), [`service`] serves and calls ROS 2 services, [`queue`] is the bounded
@@ -25,6 +27,8 @@ pub mod error;
 pub mod logging;
 pub mod names;
 pub mod node;
+pub mod param_services;
+pub mod param_store;
 pub mod param_value;
 pub mod params;
 pub mod params_file;

@@ -1,8 +1,9 @@
 //! A running ROS 2 node set up from the command line: name and namespace after remaps,
 //! declared parameters with their start-up values served by the parameter services,
 //! logging, the DDS participant on `ROS_DOMAIN_ID`, and the background spinner that
-//! answers discovery and parameter requests.
+//! answers discovery.
 
+use std::sync::Arc;
 use std::thread::JoinHandle;
 
 use ros2_client::{
@@ -17,6 +18,8 @@ use super::args::RosArgs;
 use super::error::{Result, RuntimeError};
 use super::logging::{self, LogConfig};
 use super::names::NodeIdentity;
+use super::param_services::ParameterServices;
+use super::param_store::ParameterStore;
 use super::params::{ParamSpec, startup_params, type_name};
 use super::service::{self, ServiceClient, ServiceServer};
 use super::shutdown::Shutdown;
@@ -191,24 +194,23 @@ impl NodeBuilder {
             .context(domain_id)
             .map_err(|e| RuntimeError::Middleware(e.to_string()))?;
 
-        let specs = self.specs.clone();
-        let mut options = NodeOptions::new()
+        // The parameter services are the runtime's own (param_services): ros2-client's
+        // cannot describe parameters or refuse read-only ones.
+        let options = NodeOptions::new()
             .enable_rosout(ros_args.rosout_logs)
-            .start_parameter_services(true)
-            .parameter_validator(Box::new(move |name, value| {
-                specs
-                    .iter()
-                    .find(|s| s.name == name)
-                    .map_or(Ok(()), |spec| spec.accept(value.clone()).map(|_| ()))
-            }));
-        for parameter in &startup.values {
-            options = options.declare_parameter(&parameter.name, parameter.value.clone());
-        }
+            .start_parameter_services(false);
         let node_name = NodeName::new(&identity.namespace, &identity.name)
             .map_err(|e| middleware("node name", format!("{e:?}")))?;
         let mut node = context
             .new_node(node_name, options)
             .map_err(|e| middleware("node", format!("{e:?}")))?;
+        let params = Arc::new(ParameterStore::new(&self.specs, &startup.values));
+        let parameter_services = ParameterServices::start(
+            &context,
+            &mut node,
+            &identity.fully_qualified_name(),
+            Arc::clone(&params),
+        )?;
         let spinner = node.spinner().map_err(|e| middleware("node spinner", e))?;
         let spinner_thread = std::thread::Builder::new()
             .name("ros-spinner".into())
@@ -228,6 +230,8 @@ impl NodeBuilder {
             ros_args,
             node_args,
             specs: self.specs,
+            params,
+            parameter_services: Some(parameter_services),
             node: Some(node),
             _context: context,
             shutdown,
@@ -242,6 +246,8 @@ pub struct RosNode {
     ros_args: RosArgs,
     node_args: Vec<String>,
     specs: Vec<ParamSpec>,
+    params: Arc<ParameterStore>,
+    parameter_services: Option<ParameterServices>,
     node: Option<Node>,
     _context: Context,
     shutdown: Shutdown,
@@ -289,8 +295,8 @@ impl RosNode {
     /// The current value of a declared parameter (it may have been set through the
     /// parameter services since start-up).
     pub fn param(&self, name: &str) -> Result<ParameterValue> {
-        self.node()?
-            .get_parameter(name)
+        self.params
+            .get(name)
             .ok_or_else(|| RuntimeError::Parameter {
                 name: name.to_string(),
                 reason: "not declared by this node".into(),
@@ -410,6 +416,7 @@ impl RosNode {
 impl Drop for RosNode {
     fn drop(&mut self) {
         logging::detach_rosout();
+        self.parameter_services = None;
         // Dropping the node tells its spinner to stop.
         self.node = None;
         if let Some(thread) = self.spinner_thread.take()

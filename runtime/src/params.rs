@@ -10,8 +10,17 @@ use super::error::{Result, RuntimeError};
 use super::names::NodeIdentity;
 use super::params_file::node_pattern_matches;
 
+/// The values a numeric parameter accepts (both ends included).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ParamRange {
+    /// Every integer of the range.
+    Integer(RangeInclusive<i64>),
+    /// Every double of the range.
+    Double(RangeInclusive<f64>),
+}
+
 /// A parameter a node declares: its name, default (which fixes its type), what it is
-/// for, and optionally the integers it accepts.
+/// for, the values it accepts, and whether it can change while the node runs.
 #[derive(Clone, Debug)]
 pub struct ParamSpec {
     /// Parameter name (dotted for groups, such as `camera.frame`).
@@ -20,29 +29,65 @@ pub struct ParamSpec {
     pub default: ParameterValue,
     /// What the parameter does, with units and meaning of values.
     pub description: String,
-    /// Accepted values of an integer parameter.
-    pub integer_range: Option<RangeInclusive<i64>>,
+    /// Accepted values of a numeric parameter.
+    pub range: Option<ParamRange>,
+    /// Accepted values of a string parameter; empty: any string.
+    pub choices: Vec<String>,
+    /// Whether the value is fixed at start-up (the node reads it once); a set through
+    /// the parameter services is then refused.
+    pub read_only: bool,
 }
 
 impl ParamSpec {
-    /// Declares a parameter with its default and description.
+    /// Declares a parameter with its default and description. It is read-only (read
+    /// once at start-up) unless marked [`ParamSpec::settable_while_running`].
     pub fn new(name: &str, default: ParameterValue, description: &str) -> Self {
         ParamSpec {
             name: name.to_string(),
             default,
             description: description.to_string(),
-            integer_range: None,
+            range: None,
+            choices: Vec::new(),
+            read_only: true,
         }
     }
 
     /// Restricts an integer parameter to `range`.
     pub fn integer_range(mut self, range: RangeInclusive<i64>) -> Self {
-        self.integer_range = Some(range);
+        self.range = Some(ParamRange::Integer(range));
         self
     }
 
+    /// Restricts a double parameter to `range`.
+    pub fn double_range(mut self, range: RangeInclusive<f64>) -> Self {
+        self.range = Some(ParamRange::Double(range));
+        self
+    }
+
+    /// Restricts a string parameter to `choices`.
+    pub fn one_of(mut self, choices: &[&str]) -> Self {
+        self.choices = choices.iter().map(|c| c.to_string()).collect();
+        self
+    }
+
+    /// Lets the parameter change while the node runs (the node reads it again for
+    /// every frame).
+    pub fn settable_while_running(mut self) -> Self {
+        self.read_only = false;
+        self
+    }
+
+    /// Plain-words constraints the range cannot express: the allowed strings.
+    pub fn additional_constraints(&self) -> String {
+        if self.choices.is_empty() {
+            String::new()
+        } else {
+            format!("one of: {}", self.choices.join(", "))
+        }
+    }
+
     /// Checks a value for this parameter: same type as the default (an integer is taken
-    /// for a double, as written `5` for `5.0`), and within the integer range.
+    /// for a double, as written `5` for `5.0`), within the range, one of the choices.
     pub fn accept(&self, value: ParameterValue) -> std::result::Result<ParameterValue, String> {
         let value = match (&self.default, value) {
             (ParameterValue::Double(_), ParameterValue::Integer(i)) => {
@@ -62,21 +107,47 @@ impl ParamSpec {
             ));
         }
         self.check_range(&value)?;
+        self.check_choices(&value)?;
         Ok(value)
     }
 
     fn check_range(&self, value: &ParameterValue) -> std::result::Result<(), String> {
-        if let (Some(range), ParameterValue::Integer(i)) = (&self.integer_range, value)
-            && !range.contains(i)
-        {
-            return Err(format!(
-                "{i} is out of range {}..={} ({})",
-                range.start(),
-                range.end(),
+        let out_of = |shown: String, range: String| {
+            Err(format!(
+                "{shown} is out of range {range} ({})",
                 self.description
-            ));
+            ))
+        };
+        match (&self.range, value) {
+            (Some(ParamRange::Integer(range)), ParameterValue::Integer(i))
+                if !range.contains(i) =>
+            {
+                out_of(
+                    i.to_string(),
+                    format!("{}..={}", range.start(), range.end()),
+                )
+            }
+            (Some(ParamRange::Double(range)), ParameterValue::Double(d)) if !range.contains(d) => {
+                out_of(
+                    d.to_string(),
+                    format!("{}..={}", range.start(), range.end()),
+                )
+            }
+            _ => Ok(()),
         }
-        Ok(())
+    }
+
+    fn check_choices(&self, value: &ParameterValue) -> std::result::Result<(), String> {
+        match value {
+            ParameterValue::String(s) if !self.choices.is_empty() && !self.choices.contains(s) => {
+                Err(format!(
+                    "{s:?} is not {} ({})",
+                    self.additional_constraints(),
+                    self.description
+                ))
+            }
+            _ => Ok(()),
+        }
     }
 }
 
@@ -246,7 +317,7 @@ mod tests {
             .map(|e| e.to_string())
             .unwrap_or_default();
         assert!(
-            err.contains("\"queue_size\"")
+            err.contains("parameter queue_size:")
                 && err.contains("expected a value of type integer, got string"),
             "{err}"
         );

@@ -56,7 +56,11 @@ fn assert_refused(params: &[&str], expected: &[&str]) {
 fn an_unknown_pattern_is_refused_naming_the_choices() {
     assert_refused(
         &["pattern:=circles", "size:=9x6", "square:=0.025"],
-        &["parameter pattern", "\"circles\"", "chessboard or charuco"],
+        &[
+            "parameter pattern",
+            "\"circles\"",
+            "one of: chessboard, charuco",
+        ],
     );
 }
 
@@ -76,7 +80,7 @@ fn other_bad_parameters_are_refused_by_name() {
         &["size:=9x6", "square:=0.025", "model:=fisheye"],
         &[
             "parameter model",
-            "plumb_bob, rational_polynomial or equidistant",
+            "one of: plumb_bob, rational_polynomial, equidistant",
         ],
     );
     assert_refused(
@@ -93,7 +97,7 @@ fn other_bad_parameters_are_refused_by_name() {
     );
     assert_refused(
         &["size:=9x6", "square:=0.025", "stereo:=true", "slop:=-0.1"],
-        &["parameter slop"],
+        &["parameter slop", "-0.1 is out of range 0..=10"],
     );
 }
 

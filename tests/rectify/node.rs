@@ -1,26 +1,29 @@
 //! End to end over DDS on loopback: the built `rectify_node` binary, on its own ROS
 //! domain, rectifies what this test publishes exactly as the rectify stage does, serves
-//! its parameters through the ROS 2 parameter services, and stops cleanly on SIGTERM.
+//! and describes its parameters through the ROS 2 parameter services (refusing
+//! out-of-range and read-only sets, publishing `/parameter_events`), and stops cleanly
+//! on SIGTERM.
 
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-use ros2_client::parameters::raw;
-use ros2_client::rcl_interfaces::{
+use ros2_client::{Log, Node};
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use stereocal::rectify::stage::{Rectified, Rectifier};
+use stereocal_msgs::RosMessage;
+use stereocal_msgs::builtin_interfaces::Time;
+use stereocal_msgs::rcl_interfaces::srv::{
     DescribeParametersRequest, DescribeParametersResponse, GetParametersRequest,
-    GetParametersResponse, ListParametersRequest, ListParametersResponse, SetParametersRequest,
+    GetParametersResponse, ListParametersRequest, ListParametersResponse,
+    SetParametersAtomicallyRequest, SetParametersAtomicallyResponse, SetParametersRequest,
     SetParametersResponse,
 };
-use ros2_client::service::Client;
-use ros2_client::{
-    Log, Message, Name, Node, Parameter, ParameterValue, QosProfile, ServiceMapping,
-    ServiceTypeName,
-};
-use stereocal::rectify::stage::{Rectified, Rectifier};
-use stereocal_msgs::builtin_interfaces::Time;
+use stereocal_msgs::rcl_interfaces::{self as wire, ParameterEvent, parameter_type};
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_runtime::qos;
+use stereocal_runtime::service::{self, ServiceClient};
 use stereocal_runtime::testing::{DomainLease, NodeProcess, PeerNode, block_on_timeout};
 use stereocal_runtime::transport::TransportConfig;
 use stereocal_vision::rectify::RemapOptions;
@@ -239,72 +242,48 @@ fn rectifies_every_frame_like_the_stage_and_stops_on_sigterm() {
     assert_eq!(dropped, 0, "{summary}");
 }
 
-fn service_qos() -> QosProfile {
-    qos::reliable(1)
+fn client<Req, Resp>(node: &mut Node, service: &str) -> ServiceClient<Req, Resp>
+where
+    Req: RosMessage + Serialize + DeserializeOwned + Clone + 'static,
+    Resp: RosMessage + Serialize + DeserializeOwned + 'static,
+{
+    service::create_client(node, &format!("/cam/rectify_node/{service}")).expect("client")
 }
 
-fn client<Req, Resp>(node: &mut Node, service: &str, type_name: &str) -> Client<Req, Resp>
+fn call<Req, Resp>(node: &Node, client: &ServiceClient<Req, Resp>, request: Req) -> Resp
 where
-    Req: Message + Clone + 'static,
-    Resp: Message + 'static,
+    Req: Serialize + DeserializeOwned + Clone + 'static,
+    Resp: Serialize + DeserializeOwned + 'static,
 {
-    node.create_client::<Req, Resp>(
-        ServiceMapping::Enhanced,
-        &Name::new("/cam/rectify_node", service).expect("service name"),
-        &ServiceTypeName::new("rcl_interfaces", type_name),
-        service_qos(),
-        service_qos(),
-    )
-    .expect("client")
-}
-
-fn call<Req, Resp>(node: &Node, client: &Client<Req, Resp>, request: Req) -> Resp
-where
-    Req: Message + Clone + 'static,
-    Resp: Message + 'static,
-{
-    let found = block_on_timeout(client.wait_for_service(node), TIMEOUT);
-    assert!(found.is_some(), "parameter service not discovered");
+    assert!(
+        service::wait_for_server(node, client, TIMEOUT),
+        "parameter service not discovered"
+    );
     // A reply sent before the server has matched our response reader is lost (the
     // service topics are volatile), so a call that goes unanswered is repeated.
     for _ in 0..10 {
-        let response = block_on_timeout(
-            client.async_call_service(request.clone()),
-            Duration::from_secs(2),
-        );
-        match response {
-            Some(Ok(response)) => return response,
-            Some(Err(e)) => panic!("service call failed: {e:?}"),
-            None => continue,
+        if let Some(response) =
+            service::call(client, &request, Duration::from_secs(2)).expect("service call")
+        {
+            return response;
         }
     }
     panic!("parameter service never answered")
 }
 
-fn set(
-    node: &Node,
-    client: &Client<SetParametersRequest, SetParametersResponse>,
-    name: &str,
-    value: ParameterValue,
-) -> raw::SetParametersResult {
-    let mut response = call(
-        node,
-        client,
-        SetParametersRequest {
-            parameter: vec![
-                Parameter {
-                    name: name.into(),
-                    value,
-                }
-                .into(),
-            ],
+fn integer(name: &str, value: i64) -> wire::Parameter {
+    wire::Parameter {
+        name: name.into(),
+        value: wire::ParameterValue {
+            type_: parameter_type::INTEGER,
+            integer_value: value,
+            ..wire::ParameterValue::default()
         },
-    );
-    response.results.pop().expect("one result")
+    }
 }
 
 #[test]
-fn parameters_are_served_and_checked() {
+fn parameters_are_served_described_and_checked() {
     let domain = DomainLease::for_test().expect("a ROS domain");
     let params_file = tempfile::NamedTempFile::new().expect("temp file");
     std::fs::write(
@@ -315,112 +294,113 @@ fn parameters_are_served_and_checked() {
     let path = params_file.path().to_string_lossy().into_owned();
     let process = start_node(&domain, &["--params-file", &path]);
     let mut peer = test_node(&domain, "params");
+    let events = peer
+        .subscription::<ParameterEvent>("/parameter_events", qos::reliable(100))
+        .expect("parameter events subscription");
 
-    let list = client::<ListParametersRequest, ListParametersResponse>(
-        peer.node_mut(),
-        "list_parameters",
-        "ListParameters",
-    );
-    let names = call(
-        peer.node(),
-        &list,
-        ListParametersRequest {
-            prefixes: vec![],
-            depth: 0,
-        },
-    )
-    .result
-    .names;
-    for name in ["interpolation", "queue_size", "use_sim_time"] {
-        assert!(
-            names.iter().any(|n| n == name),
-            "{name} not listed: {names:?}"
-        );
-    }
+    let list =
+        client::<ListParametersRequest, ListParametersResponse>(peer.node_mut(), "list_parameters");
+    let names = call(peer.node(), &list, ListParametersRequest::default())
+        .result
+        .names;
+    assert_eq!(names, ["interpolation", "queue_size"]);
 
-    let get = client::<GetParametersRequest, GetParametersResponse>(
-        peer.node_mut(),
-        "get_parameters",
-        "GetParameters",
-    );
-    let get_values = |node: &Node| -> Vec<ParameterValue> {
-        call(
-            node,
-            &get,
-            GetParametersRequest {
-                names: vec!["interpolation".into(), "queue_size".into()],
-            },
-        )
-        .values
-        .into_iter()
-        .map(ParameterValue::from)
-        .collect()
+    let get =
+        client::<GetParametersRequest, GetParametersResponse>(peer.node_mut(), "get_parameters");
+    let get_values = |node: &Node| -> Vec<i64> {
+        let request = GetParametersRequest {
+            names: vec!["interpolation".into(), "queue_size".into()],
+        };
+        call(node, &get, request)
+            .values
+            .iter()
+            .map(|v| v.integer_value)
+            .collect()
     };
-    assert_eq!(
-        get_values(peer.node()),
-        vec![ParameterValue::Integer(2), ParameterValue::Integer(7)]
-    );
+    assert_eq!(get_values(peer.node()), [2, 7]);
 
     let describe = client::<DescribeParametersRequest, DescribeParametersResponse>(
         peer.node_mut(),
         "describe_parameters",
-        "DescribeParameters",
     );
-    let descriptors = call(
-        peer.node(),
-        &describe,
-        DescribeParametersRequest {
-            names: vec!["interpolation".into()],
-        },
-    )
-    .values;
-    assert_eq!(descriptors.len(), 1);
-    assert_eq!(descriptors[0].name, "interpolation");
+    let request = DescribeParametersRequest {
+        names: vec!["interpolation".into(), "queue_size".into(), "nope".into()],
+    };
+    let descriptors = call(peer.node(), &describe, request).descriptors;
+    assert_eq!(descriptors.len(), 3);
+    let interpolation = &descriptors[0];
+    assert_eq!(interpolation.name, "interpolation");
+    assert_eq!(interpolation.type_, parameter_type::INTEGER);
+    assert!(
+        interpolation.description.contains("cubic"),
+        "{interpolation:?}"
+    );
+    assert!(!interpolation.read_only);
     assert_eq!(
-        descriptors[0].r#type, 2,
-        "interpolation is an integer parameter"
+        (
+            interpolation.integer_range[0].from_value,
+            interpolation.integer_range[0].to_value
+        ),
+        (0, 2)
     );
+    assert!(descriptors[1].read_only, "queue_size is read at start-up");
+    assert_eq!(descriptors[2].type_, parameter_type::NOT_SET);
 
-    let setter = client::<SetParametersRequest, SetParametersResponse>(
+    let setter =
+        client::<SetParametersRequest, SetParametersResponse>(peer.node_mut(), "set_parameters");
+    let request = SetParametersRequest {
+        parameters: vec![
+            integer("interpolation", 3),
+            integer("queue_size", 2),
+            integer("interpolation", 0),
+        ],
+    };
+    let results = call(peer.node(), &setter, request).results;
+    assert!(
+        !results[0].successful && results[0].reason.contains("out of range 0..=2"),
+        "{results:?}"
+    );
+    assert!(
+        !results[1].successful && results[1].reason.contains("read-only"),
+        "{results:?}"
+    );
+    assert!(results[2].successful, "{results:?}");
+    assert_eq!(get_values(peer.node()), [0, 7]);
+
+    let atomic = client::<SetParametersAtomicallyRequest, SetParametersAtomicallyResponse>(
         peer.node_mut(),
-        "set_parameters",
-        "SetParameters",
+        "set_parameters_atomically",
     );
-    let wrong_type = set(
-        peer.node(),
-        &setter,
-        "interpolation",
-        ParameterValue::String("cubic".into()),
-    );
-    assert!(!wrong_type.successful);
+    let request = SetParametersAtomicallyRequest {
+        parameters: vec![integer("interpolation", 1), integer("interpolation", 9)],
+    };
+    let result = call(peer.node(), &atomic, request).result;
     assert!(
-        wrong_type.reason.contains("type"),
-        "reason: {}",
-        wrong_type.reason
+        !result.successful && result.reason.contains("9 is out of range"),
+        "{result:?}"
     );
-    let out_of_range = set(
-        peer.node(),
-        &setter,
-        "interpolation",
-        ParameterValue::Integer(3),
-    );
-    assert!(!out_of_range.successful);
-    assert!(
-        out_of_range.reason.contains("out of range 0..=2"),
-        "reason: {}",
-        out_of_range.reason
-    );
-    let accepted = set(
-        peer.node(),
-        &setter,
-        "interpolation",
-        ParameterValue::Integer(0),
-    );
-    assert!(accepted.successful, "reason: {}", accepted.reason);
     assert_eq!(
         get_values(peer.node()),
-        vec![ParameterValue::Integer(0), ParameterValue::Integer(7)]
+        [0, 7],
+        "a refused atomic set changes nothing"
     );
+
+    // The declaration event may precede our subscription; the accepted set's event is
+    // the one every subscriber sees.
+    let changed = block_on_timeout(
+        async {
+            loop {
+                match events.async_take().await {
+                    Ok((event, _)) if !event.changed_parameters.is_empty() => break event,
+                    _ => continue,
+                }
+            }
+        },
+        TIMEOUT,
+    )
+    .expect("a parameter event after the set");
+    assert_eq!(changed.node, "/cam/rectify_node");
+    assert_eq!(changed.changed_parameters, [integer("interpolation", 0)]);
 
     let exit = process.terminate();
     assert!(
