@@ -89,7 +89,7 @@ where
         set_camera_info,
     };
     // The worker judges the newest frame; older ones are dropped while it is busy.
-    let worker = CalibrateWorker::new(session, settings, endpoints);
+    let worker = CalibrateWorker::new(session, settings, endpoints, node.clock());
     skeleton::spin(node, inputs, 1, worker, |_, frame| frame)?;
     Ok(())
 }

@@ -10,6 +10,7 @@ use stereocal_msgs::sensor_msgs::Image;
 use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
 use stereocal_msgs::std_msgs;
 use stereocal_msgs::std_srvs::srv::TriggerResponse;
+use stereocal_runtime::clock::NodeClock;
 use stereocal_runtime::service::{self, ServiceClient, TriggerServices};
 use stereocal_runtime::skeleton::{FrameStats, Worker};
 use stereocal_runtime::sync::Synced;
@@ -84,11 +85,12 @@ pub struct CalibrateWorker {
 }
 
 impl CalibrateWorker {
-    /// A worker judging frames with `session`.
+    /// A worker judging frames with `session`, throttling repeated logs on `clock`.
     pub fn new(
         session: CalibrationSession,
         settings: CalibrateSettings,
         endpoints: Endpoints,
+        clock: NodeClock,
     ) -> Self {
         Self {
             session,
@@ -97,8 +99,8 @@ impl CalibrateWorker {
             calibrated: None,
             last_verdict: None,
             judged: 0,
-            frame_log: Throttle::default(),
-            warn_log: Throttle::default(),
+            frame_log: Throttle::new(clock.clone()),
+            warn_log: Throttle::new(clock),
         }
     }
 

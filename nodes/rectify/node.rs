@@ -106,7 +106,7 @@ where
         publisher: node.advertise::<Image>("image_rect", qos::reliable(queue_size))?,
         rectifier: None,
         published: 0,
-        throttle: Throttle::default(),
+        throttle: Throttle::new(node.clock()),
     };
     skeleton::spin(node, inputs, queue_size, worker, |node, frame| Work {
         frame,

@@ -7,7 +7,8 @@
 //! start-up values (from [`params_file`]s and `-p` values typed by [`param_value`]),
 //! [`param_store`] holds them while the node runs and [`param_services`] serves them
 //! (the six parameter services with full descriptors, and `/parameter_events`),
-//! [`qos`] holds the QoS profiles of DESIGN.md, [`stamp`] the one stamp type, [`sync`]
+//! [`clock`] is the node's clock (system, or `/clock` with `use_sim_time`), [`qos`]
+//! holds the QoS profiles of DESIGN.md, [`stamp`] the one stamp type, [`sync`]
 //! synchronizes a node's inputs by stamp (streams with each other, camera_info with
 //! them), [`service`] serves and calls ROS 2 services, [`queue`] is the bounded
 //! drop-oldest queue between receiving and processing, [`sequence_gaps`] counts frames
@@ -23,6 +24,7 @@
 
 pub mod args;
 pub mod camera_info_url;
+pub mod clock;
 pub mod error;
 pub mod logging;
 pub mod names;

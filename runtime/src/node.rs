@@ -15,6 +15,7 @@ use serde::de::DeserializeOwned;
 use stereocal_msgs::RosMessage;
 
 use super::args::RosArgs;
+use super::clock::NodeClock;
 use super::error::{Result, RuntimeError};
 use super::logging::{self, LogConfig};
 use super::names::NodeIdentity;
@@ -24,6 +25,9 @@ use super::params::{ParamSpec, startup_params, type_name};
 use super::service::{self, ServiceClient, ServiceServer};
 use super::shutdown::Shutdown;
 use super::transport::{TransportConfig, TransportError};
+
+/// The parameter every ROS 2 node declares to follow `/clock`.
+pub const USE_SIM_TIME: &str = "use_sim_time";
 
 /// Highest domain id whose DDS ports fit in the UDP port range (as rmw checks).
 const MAX_DOMAIN_ID: u16 = 232;
@@ -117,12 +121,18 @@ fn message_type_name<M: RosMessage>() -> Result<MessageTypeName> {
 }
 
 impl NodeBuilder {
-    /// A node named `default_name` in the root namespace, unless remapped.
+    /// A node named `default_name` in the root namespace, unless remapped, declaring
+    /// `use_sim_time` as every ROS 2 node does.
     pub fn new(default_name: &str) -> Self {
         NodeBuilder {
             default_name: default_name.to_string(),
             default_namespace: "/".to_string(),
-            specs: Vec::new(),
+            specs: vec![ParamSpec::new(
+                USE_SIM_TIME,
+                ParameterValue::Boolean(false),
+                "take the node's clock from /clock (rosgraph_msgs/Clock), as a simulator or a \
+                 bag replay with --clock publishes it, instead of the system clock",
+            )],
             dds: DdsOptions::default(),
         }
     }
@@ -205,10 +215,12 @@ impl NodeBuilder {
             .new_node(node_name, options)
             .map_err(|e| middleware("node", format!("{e:?}")))?;
         let params = Arc::new(ParameterStore::new(&self.specs, &startup.values));
+        let clock = NodeClock::new(params.get(USE_SIM_TIME) == Some(ParameterValue::Boolean(true)));
         let parameter_services = ParameterServices::start(
             &context,
             &mut node,
             &identity.fully_qualified_name(),
+            clock.clone(),
             Arc::clone(&params),
         )?;
         let spinner = node.spinner().map_err(|e| middleware("node spinner", e))?;
@@ -222,8 +234,13 @@ impl NodeBuilder {
             .map_err(|e| middleware("spinner thread", e))?;
         logging::attach_rosout(node.logging_handle());
         log::info!(
-            "started {} on ROS domain {domain_id} ({transport})",
-            identity.fully_qualified_name()
+            "started {} on ROS domain {domain_id} ({transport}){}",
+            identity.fully_qualified_name(),
+            if clock.simulated().is_some() {
+                ", clock from /clock"
+            } else {
+                ""
+            }
         );
         Ok(RosNode {
             identity,
@@ -231,6 +248,7 @@ impl NodeBuilder {
             node_args,
             specs: self.specs,
             params,
+            clock,
             parameter_services: Some(parameter_services),
             node: Some(node),
             _context: context,
@@ -247,6 +265,7 @@ pub struct RosNode {
     node_args: Vec<String>,
     specs: Vec<ParamSpec>,
     params: Arc<ParameterStore>,
+    clock: NodeClock,
     parameter_services: Option<ParameterServices>,
     node: Option<Node>,
     _context: Context,
@@ -285,6 +304,11 @@ impl RosNode {
     /// The process's stop request (SIGINT/SIGTERM).
     pub fn shutdown(&self) -> Shutdown {
         self.shutdown.clone()
+    }
+
+    /// The node's clock: the system clock, or `/clock` with `use_sim_time`.
+    pub fn clock(&self) -> NodeClock {
+        self.clock.clone()
     }
 
     /// The DDS domain id.

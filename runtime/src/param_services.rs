@@ -10,13 +10,12 @@
 
 use std::sync::Arc;
 use std::thread::JoinHandle;
-use std::time::{Duration, SystemTime, UNIX_EPOCH};
+use std::time::Duration;
 
 use futures::channel::oneshot;
 use futures::{FutureExt, StreamExt};
 use ros2_client::qos::{Durability, History, QosProfile, WhenFull};
 use ros2_client::{Context, Node, Parameter, ParameterValue, Publisher};
-use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::rcl_interfaces::srv::{
     DescribeParametersRequest, DescribeParametersResponse, GetParameterTypesRequest,
     GetParameterTypesResponse, GetParametersRequest, GetParametersResponse, ListParametersRequest,
@@ -28,6 +27,7 @@ use stereocal_msgs::rcl_interfaces::{
     ParameterEvent, SetParametersResult, parameter_type,
 };
 
+use crate::clock::NodeClock;
 use crate::error::{Result, RuntimeError};
 use crate::param_store::ParameterStore;
 use crate::params::{ParamRange, ParamSpec};
@@ -165,16 +165,10 @@ fn parameter_events_qos() -> QosProfile {
         .history(History::KeepLast { depth: 1000 })
 }
 
-fn now() -> Time {
-    let since_epoch = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .unwrap_or_default();
-    Time::from_nanos(i64::try_from(since_epoch.as_nanos()).unwrap_or(i64::MAX))
-}
-
 /// The endpoints of the parameter services and `/parameter_events`.
 struct Endpoints {
     node_name: String,
+    clock: NodeClock,
     store: Arc<ParameterStore>,
     events: Publisher<ParameterEvent>,
     list: ServiceServer<ListParametersRequest, ListParametersResponse>,
@@ -203,7 +197,7 @@ fn respond<Req, Resp>(
 impl Endpoints {
     fn publish(&self, new_parameters: Vec<Parameter>, changed_parameters: Vec<Parameter>) {
         let event = ParameterEvent {
-            stamp: now(),
+            stamp: self.clock.now(),
             node: self.node_name.clone(),
             new_parameters: new_parameters.iter().map(parameter_to_wire).collect(),
             changed_parameters: changed_parameters.iter().map(parameter_to_wire).collect(),
@@ -351,11 +345,13 @@ pub struct ParameterServices {
 
 impl ParameterServices {
     /// Serves `store` as the parameters of `node` (whose fully qualified name is
-    /// `node_name`), and publishes the declared parameters on `/parameter_events`.
+    /// `node_name`), and publishes the declared parameters on `/parameter_events`,
+    /// stamping events on `clock`.
     pub fn start(
         context: &Context,
         node: &mut Node,
         node_name: &str,
+        clock: NodeClock,
         store: Arc<ParameterStore>,
     ) -> Result<Self> {
         let service = |name: &str| format!("{}/{name}", node_name.trim_end_matches('/'));
@@ -367,6 +363,7 @@ impl ParameterServices {
             .map_err(|e| RuntimeError::Middleware(format!("/parameter_events publisher: {e}")))?;
         let endpoints = Endpoints {
             node_name: node_name.to_owned(),
+            clock,
             store,
             events,
             list: create_server(node, &service("list_parameters"))?,

@@ -190,6 +190,21 @@ impl<F, C> Synchronizer<F, C> {
         out
     }
 
+    /// Forgets the stream frames and sets waiting for a partner (counted as unpaired),
+    /// as when time went back; latched items are kept, so a camera_info sent once still
+    /// serves the frames to come.
+    pub fn reset(&mut self) {
+        let waiting: usize = self.streams.iter().map(VecDeque::len).sum::<usize>()
+            + self
+                .waiting
+                .iter()
+                .map(|set| set.frames.len())
+                .sum::<usize>();
+        self.unpaired += waiting as u64;
+        self.streams.iter_mut().for_each(VecDeque::clear);
+        self.waiting.clear();
+    }
+
     /// Stream frames dropped without a partner, and sets dropped for want of a latched
     /// item, so far.
     pub fn unpaired(&self) -> u64 {
@@ -371,6 +386,24 @@ mod tests {
             vec![("img3", 30)]
         );
         assert_eq!(sync.inexact(), 0);
+    }
+
+    #[test]
+    fn a_reset_forgets_waiting_frames_and_keeps_latched_items() {
+        let mut sync = Synchronizer::<_, u32>::new(2, 1, SyncPolicy::exact(4));
+        assert!(sync.push_stream(0, t(900), "l900").is_empty());
+        assert!(sync.push_latched(0, t(800), 8).is_empty());
+        sync.reset();
+        assert_eq!(sync.unpaired(), 1);
+        assert_eq!(sync.waiting_frames(), vec![0, 0]);
+        // Time went back: frames of earlier stamps pair, with the kept camera_info.
+        assert!(sync.push_stream(0, t(100), "l100").is_empty());
+        let out = sync.push_stream(1, t(100), "r100");
+        assert_eq!(out.len(), 1);
+        assert_eq!(
+            (out[0].frames[0], out[0].frames[1], *out[0].latched[0]),
+            ("l100", "r100", 8)
+        );
     }
 
     #[test]

@@ -1,7 +1,13 @@
 //! Throttled logging: a node that meets the same problem on every frame says so once in
-//! a while, not thirty times a second.
+//! a while, not thirty times a second. The while is measured on the node's clock, so a
+//! replay at ten times real speed with `use_sim_time` repeats a warning every five
+//! simulated seconds.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
+
+use stereocal_msgs::builtin_interfaces::Time;
+
+use crate::clock::NodeClock;
 
 /// How often the same message is logged again.
 pub const REPEAT_LOG_PERIOD: Duration = Duration::from_secs(5);
@@ -9,20 +15,27 @@ pub const REPEAT_LOG_PERIOD: Duration = Duration::from_secs(5);
 /// Logs a message at most once per [`REPEAT_LOG_PERIOD`] unless its text changes.
 #[derive(Debug, Default)]
 pub struct Throttle {
-    last: Option<(String, Instant)>,
+    clock: NodeClock,
+    last: Option<(String, Time)>,
 }
 
 impl Throttle {
+    /// A throttle measuring time on `clock`.
+    pub fn new(clock: NodeClock) -> Self {
+        Self { clock, last: None }
+    }
+
     /// Logs `message` at `level` unless it is the message last logged, less than
-    /// [`REPEAT_LOG_PERIOD`] ago.
+    /// [`REPEAT_LOG_PERIOD`] ago (a clock that went back ends the wait).
     pub fn log(&mut self, level: log::Level, message: String) {
-        let repeat = self
-            .last
-            .as_ref()
-            .is_some_and(|(m, at)| *m == message && at.elapsed() < REPEAT_LOG_PERIOD);
+        let now = self.clock.now();
+        let repeat = self.last.as_ref().is_some_and(|(m, at)| {
+            let since = now.seconds_since(at);
+            *m == message && (0.0..REPEAT_LOG_PERIOD.as_secs_f64()).contains(&since)
+        });
         if !repeat {
             log::log!(level, "{message}");
-            self.last = Some((message, Instant::now()));
+            self.last = Some((message, now));
         }
     }
 

@@ -5,7 +5,10 @@
 //! truth, and a fake camera's `set_camera_info` receiving the same calibration. A second
 //! test kills the node mid-session and finds the samples again after a restart (and none
 //! after `~/reset`), the restarted node pairing frames whose stamps differ within its
-//! `slop`; a third calibrates the left camera alone with `auto_calibrate`.
+//! `slop`; a third calibrates the left camera alone with `auto_calibrate`. With
+//! `use_sim_time`, a replay at twice and at half speed, `/clock` following the frames,
+//! gets the same verdict on every frame, and a `/clock` that goes back is warned about
+//! while the node goes on judging.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -16,6 +19,7 @@ use std::time::{Duration, Instant};
 
 use ros2_client::{Publisher, Subscription};
 use stereocal_msgs::CameraInfoFile;
+use stereocal_msgs::rosgraph_msgs::Clock;
 use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 use stereocal_msgs::std_msgs;
@@ -151,6 +155,7 @@ fn start_node(domain: &DomainLease, dir: &Path, rig: Rig, params: &[&str]) -> No
 /// The test's side: a player of the pair, a reader of `~/status`, clients of the node's
 /// services, and a fake left camera serving `left/set_camera_info`.
 struct Player {
+    clock: Publisher<Clock>,
     left: Publisher<Image>,
     right: Option<Publisher<Image>>,
     status: Subscription<std_msgs::String>,
@@ -186,6 +191,9 @@ impl Player {
                 format!("{}/annotated_image", rig.node()),
             ),
         };
+        let clock = peer
+            .publisher::<Clock>("/clock", qos::reliable(1))
+            .expect("clock");
         let left = peer
             .publisher::<Image>(&left_name, qos::reliable(10))
             .expect("left");
@@ -231,6 +239,7 @@ impl Player {
             })
         };
         Self {
+            clock,
             left,
             right,
             status,
@@ -592,4 +601,118 @@ fn a_mono_node_calibrates_by_itself_once_coverage_is_ready() {
         file.info.k
     );
     assert!(logs.contains("coverage is ready: calibrating"), "{logs}");
+}
+
+/// Frames of the sim-time replays: enough for samples to be added and refused.
+const SIM_TIME_FRAMES: usize = 12;
+
+/// The node's verdict and reason on each of the first [`SIM_TIME_FRAMES`] pairs,
+/// replayed with `use_sim_time` and `/clock` at `rate` times the recorded speed (a
+/// frame is not sent before the previous one was judged).
+fn sim_time_verdicts(rate: f64) -> Vec<(String, String)> {
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let node = start_node(
+        &domain,
+        dir.path(),
+        Rig::Stereo,
+        &["use_sim_time:=true", "max_board_speed:=600"],
+    );
+    let mut player = Player::new(&domain, Rig::Stereo);
+    player.wait_for_node();
+    let pairs = &session().pairs[..SIM_TIME_FRAMES];
+    let first = pairs[0].0.header.stamp;
+    let start = Instant::now();
+    let mut verdicts = Vec::new();
+    for pair in pairs {
+        let stamp = pair.0.header.stamp;
+        // Pacing, not synchronization: send_pair waits for the node's verdict.
+        let due = start + Duration::from_secs_f64(stamp.seconds_since(&first) / rate);
+        if let Some(wait) = due.checked_duration_since(Instant::now()) {
+            std::thread::sleep(wait);
+        }
+        player
+            .clock
+            .publish(Clock { clock: stamp })
+            .expect("publish /clock");
+        player.send_pair(pair);
+        verdicts.push((
+            player.last_status["verdict"].to_string(),
+            player.last_status["reason"].to_string(),
+        ));
+    }
+    let exit = node.terminate();
+    assert!(
+        exit.clean(),
+        "calibrate_node failed on SIGTERM:\n{}",
+        exit.logs
+    );
+    assert!(
+        exit.logs.contains("clock from /clock"),
+        "use_sim_time not in force:\n{}",
+        exit.logs
+    );
+    verdicts
+}
+
+#[test]
+fn with_sim_time_the_replay_speed_changes_no_verdict() {
+    let fast = sim_time_verdicts(2.0);
+    let slow = sim_time_verdicts(0.5);
+    eprintln!("verdicts at 2x: {fast:?}");
+    assert_eq!(fast, slow, "verdicts at 2x and at 0.5x differ");
+    assert!(
+        fast.iter().any(|(verdict, _)| verdict == "\"added\""),
+        "{fast:?}"
+    );
+    assert!(
+        fast.iter()
+            .any(|(_, reason)| reason.contains("board moving")),
+        "no frame was refused for motion: {fast:?}"
+    );
+}
+
+#[test]
+fn a_clock_going_back_is_warned_about_and_the_node_goes_on() {
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let node = start_node(&domain, dir.path(), Rig::Stereo, &["use_sim_time:=true"]);
+    let mut player = Player::new(&domain, Rig::Stereo);
+    player.wait_for_node();
+    let pairs = &session().pairs;
+    let late = pairs[5].0.header.stamp;
+    let early = pairs[0].0.header.stamp;
+    player
+        .clock
+        .publish(Clock { clock: late })
+        .expect("publish /clock");
+    player.send_pair(&pairs[5]);
+    // /clock is best-effort: jump back again until the node has seen a jump.
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while !node.logs().contains("/clock went back") {
+        assert!(
+            Instant::now() < deadline,
+            "no warning about /clock going back:\n{}",
+            node.logs()
+        );
+        player
+            .clock
+            .publish(Clock { clock: late })
+            .expect("publish /clock");
+        player
+            .clock
+            .publish(Clock { clock: early })
+            .expect("publish /clock");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let judged = player.status_count("judged");
+    player.send_pair(&pairs[1]);
+    assert!(player.status_count("judged") > judged);
+    let exit = node.terminate();
+    assert!(
+        exit.clean(),
+        "calibrate_node failed on SIGTERM:\n{}",
+        exit.logs
+    );
+    assert!(!exit.logs.contains("panicked"), "{}", exit.logs);
 }

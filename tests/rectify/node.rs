@@ -20,6 +20,7 @@ use stereocal_msgs::rcl_interfaces::srv::{
     SetParametersResponse,
 };
 use stereocal_msgs::rcl_interfaces::{self as wire, ParameterEvent, parameter_type};
+use stereocal_msgs::rosgraph_msgs::Clock;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_runtime::qos;
@@ -303,7 +304,7 @@ fn parameters_are_served_described_and_checked() {
     let names = call(peer.node(), &list, ListParametersRequest::default())
         .result
         .names;
-    assert_eq!(names, ["interpolation", "queue_size"]);
+    assert_eq!(names, ["use_sim_time", "interpolation", "queue_size"]);
 
     let get =
         client::<GetParametersRequest, GetParametersResponse>(peer.node_mut(), "get_parameters");
@@ -402,6 +403,53 @@ fn parameters_are_served_described_and_checked() {
     assert_eq!(changed.node, "/cam/rectify_node");
     assert_eq!(changed.changed_parameters, [integer("interpolation", 0)]);
 
+    let exit = process.terminate();
+    assert!(
+        exit.clean(),
+        "rectify_node failed on SIGTERM:\n{}",
+        exit.logs
+    );
+}
+
+#[test]
+fn with_sim_time_parameter_events_carry_clock_time() {
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let process = start_node(&domain, &["-p", "use_sim_time:=true"]);
+    let mut peer = test_node(&domain, "sim_time");
+    let clock = peer
+        .publisher::<Clock>("/clock", qos::reliable(1))
+        .expect("clock publisher");
+    let events = peer
+        .subscription::<ParameterEvent>("/parameter_events", qos::reliable(100))
+        .expect("parameter events subscription");
+    let setter =
+        client::<SetParametersRequest, SetParametersResponse>(peer.node_mut(), "set_parameters");
+    let sim_now = Time {
+        sec: 42,
+        nanosec: 5,
+    };
+    // /clock is received best-effort: set again until an event carries the clock's time.
+    let deadline = Instant::now() + TIMEOUT;
+    let mut stamps = Vec::new();
+    for value in (0..=2).cycle() {
+        assert!(
+            Instant::now() < deadline,
+            "no event stamped {sim_now:?}: {stamps:?}"
+        );
+        clock
+            .publish(Clock { clock: sim_now })
+            .expect("publish /clock");
+        let request = SetParametersRequest {
+            parameters: vec![integer("interpolation", value)],
+        };
+        assert!(call(peer.node(), &setter, request).results[0].successful);
+        while let Ok(Some((event, _))) = events.take() {
+            stamps.push(event.stamp);
+        }
+        if stamps.contains(&sim_now) {
+            break;
+        }
+    }
     let exit = process.terminate();
     assert!(
         exit.clean(),
