@@ -1,0 +1,147 @@
+"""stereocal's launch files start the graph they describe, checked by real ROS 2.
+
+`launch` and `launch_ros` are not on PyPI, so interop/launch_harness.py evaluates each
+launch file with launch arguments as `ros2 launch` would, and gives the command line
+launch_ros builds for every node it starts (executable, `__node`, `__ns`, params files,
+remaps). This check runs exactly those commands on a ROS domain of its own and asks
+rclpy on Fast DDS whether the graph is the one the launch file documents: the nodes'
+names and namespaces, the topics they subscribe and publish, the services they call,
+and the parameter values from the params file and the launch arguments. Every node must
+then stop cleanly on SIGTERM, as it does when `ros2 launch` is interrupted.
+
+Usage (after `cargo build --bin rectify_node --bin calibrate_node`):
+    .venv/bin/python interop/check_launch_rclpy.py
+"""
+
+import argparse
+import os
+import sys
+import tempfile
+from pathlib import Path
+
+from launch_harness import evaluate
+from ros2_rclpy import Checks, DomainLease, NodeProcess, Parameters, Peer, require
+
+ROOT = Path(__file__).resolve().parent.parent
+
+RECTIFY_PARAMS = {"interpolation": 1, "queue_size": 5}
+
+
+def cases(rectify_node, calibrate_node):
+    """(launch file, launch arguments, {node: (subscribed, published, called services,
+    parameter values)}) for every launch file, as its documentation describes it."""
+    stereo_rectify = {
+        f"/{side}/rectify_node": (
+            {f"/my_stereo/{side}/image_raw": "sensor_msgs/msg/Image",
+             f"/my_stereo/{side}/camera_info": "sensor_msgs/msg/CameraInfo"},
+            {f"/my_stereo/{side}/image_rect": "sensor_msgs/msg/Image"},
+            {},
+            RECTIFY_PARAMS,
+        )
+        for side in ("left", "right")
+    }
+    calibrate_stereo = {
+        "/stereo/calibrate_node": (
+            {"/stereo/left/image_raw": "sensor_msgs/msg/Image",
+             "/stereo/right/image_raw": "sensor_msgs/msg/Image"},
+            {"/stereo/calibrate_node/status": "std_msgs/msg/String"},
+            {"/stereo/left/set_camera_info": "sensor_msgs/srv/SetCameraInfo",
+             "/stereo/right/set_camera_info": "sensor_msgs/srv/SetCameraInfo"},
+            {"stereo": True, "size": "8x6", "square": 0.03, "slop": 0.01, "pattern": "chessboard",
+             "queue_size": 5},
+        )
+    }
+    calibrate_mono = {
+        "/camera/calibrate_node": (
+            {"/camera/image_raw": "sensor_msgs/msg/Image"},
+            {"/camera/calibrate_node/status": "std_msgs/msg/String",
+             "/camera/calibrate_node/annotated_image": "sensor_msgs/msg/Image"},
+            {"/camera/set_camera_info": "sensor_msgs/srv/SetCameraInfo"},
+            {"stereo": False, "size": "9x6", "square": 0.025, "model": "plumb_bob"},
+        )
+    }
+    return [
+        ("stereo_rectify.launch.py", {"rectify_node": rectify_node, "camera": "/my_stereo"}, stereo_rectify),
+        ("calibrate.launch.py", {"calibrate_node": calibrate_node, "stereo": "true", "camera": "/stereo",
+                                 "size": "8x6", "square": "0.03", "slop": "0.01"}, calibrate_stereo),
+        ("calibrate.launch.py", {"calibrate_node": calibrate_node}, calibrate_mono),
+    ]
+
+
+def split(name):
+    namespace, _, node = name.rpartition("/")
+    return node, namespace or "/"
+
+
+def check_case(checks, launch_file, arguments, expected, workdir):
+    shown = " ".join(f"{k}:={v}" for k, v in arguments.items() if not k.endswith("_node"))
+    label = f"{launch_file} {shown or '(defaults)'}"
+    with checks.check(label, "evaluates: the nodes it starts") as note:
+        evaluation = evaluate(str(ROOT / "launch" / launch_file), arguments)
+        started = {f"{n.namespace.rstrip('/')}/{n.name}" for n in evaluation.nodes}
+        require(started == set(expected), f"starts {sorted(started)}, documented {sorted(expected)}")
+        note(", ".join(sorted(started)))
+    if not checks.passed(label, "evaluates: the nodes it starts"):
+        return
+    lease = DomainLease()
+    peer = Peer(lease.id, name="launch_check")
+    processes = [NodeProcess(n.command(workdir), lease.id) for n in evaluation.nodes]
+    for process in processes:
+        peer.watch(process)
+    try:
+        with checks.check(label, "graph: nodes, topics, services called") as note:
+            for name, (subscribed, published, called, _) in expected.items():
+                node, namespace = split(name)
+                peer.wait_until(lambda: (node, namespace) in peer.node_names(), f"{name} in the graph")
+
+                def entities_complete():
+                    entities = peer.entities_of(node, namespace)
+                    return entities if (set(subscribed) <= set(entities["subscribers"])
+                                        and set(published) <= set(entities["publishers"])
+                                        and set(called) <= set(entities["clients"])) else None
+                entities = peer.wait_until(entities_complete, lambda: f"{name}'s topics and clients: "
+                                           f"{peer.entities_of(node, namespace)}")
+                for kind, wanted in (("subscribers", subscribed), ("publishers", published),
+                                     ("clients", called)):
+                    for topic, type_name in wanted.items():
+                        require(entities[kind][topic] == [type_name],
+                                f"{name} {kind} {topic}: {entities[kind][topic]}, expected {type_name}")
+            note(f"{len(expected)} node(s) as documented")
+        with checks.check(label, "parameters: params file and launch arguments") as note:
+            for name, (_, _, _, values) in expected.items():
+                got = Parameters(peer, name).get(list(values))
+                require(got == list(values.values()), f"{name}: {dict(zip(values, got))}, expected {values}")
+            note("; ".join(f"{name}: {values}" for name, (_, _, _, values) in expected.items()))
+        with checks.check(label, "clean shutdown (SIGTERM)"):
+            peer.watched.clear()
+            codes = [p.stop() for p in processes]
+            require(all(code == 0 for code in codes), lambda: f"exit codes {codes}:\n"
+                    + "\n".join(p.logs()[-2000:] for p in processes))
+            peer.wait_until(lambda: not ({split(n) for n in expected} & peer.node_names()),
+                            "the nodes to leave the graph")
+    finally:
+        for process in processes:
+            process.stop()
+        peer.close()
+        lease.release()
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rectify-node", default=str(ROOT / "target" / "debug" / "rectify_node"))
+    parser.add_argument("--calibrate-node", default=str(ROOT / "target" / "debug" / "calibrate_node"))
+    args = parser.parse_args()
+    for binary in (args.rectify_node, args.calibrate_node):
+        if not Path(binary).exists():
+            sys.exit(f"{binary} not found; build it with `cargo build --bin rectify_node --bin calibrate_node`")
+    checks = Checks()
+    with tempfile.TemporaryDirectory() as workdir:
+        # calibrate_node keeps its samples under $ROS_HOME: a folder of this check's own.
+        os.environ["ROS_HOME"] = workdir
+        for launch_file, arguments, expected in cases(args.rectify_node, args.calibrate_node):
+            check_case(checks, launch_file, arguments, expected, workdir)
+    return checks.table()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,720 @@
+"""Real ROS 2 tests every stereocal node: rclpy on Fast DDS, as users' robots run it.
+
+rclpy from the ROS 2 Kilted wheels on rmw_fastrtps_cpp (the default middleware of a ROS 2
+install), on a ROS domain leased for this run, starts each node as its own process in a
+namespace with remaps and checks, node by node, what a ROS 2 user and the C++/Python
+nodes around it would see:
+
+- discovery: the node's name and namespace are in the ROS graph (`ros2 node list`);
+- graph: its publishers, subscribers, services and service clients, with their types,
+  are exactly those it documents, and its topics are in `ros2 topic list -t`;
+- QoS: a default reliable subscriber (depth 10) and a `qos_profile_sensor_data`
+  best-effort subscriber both receive its image output, published from rclpy's input;
+- content: rectify_node's image_rect equals OpenCV's initUndistortRectifyMap + remap
+  within 1 grey level (bilinear, then nearest after `interpolation` is set to 0 while it
+  runs); calibrate_node, fed a synthesized stereo session (`stereocal synth`) from
+  rclpy, calibrates on `~/calibrate` within 0.2 px (fx, fy, cx, cy), 0.1 degree and 1 mm
+  (right_from_left) of the session's ground truth, and `~/commit` writes camera_info
+  YAML that PyYAML reads back with the same numbers, while rclpy's set_camera_info
+  server receives the same calibration;
+- parameters through the rcl_interfaces services, as `ros2 param` calls them: list
+  (with prefixes and depth), get, get types, describe (a description for every
+  parameter, ranges on every integer and double, read_only, allowed values of string
+  parameters with a fixed set in `additional_constraints`), a set that takes effect, a
+  set out of range or of a read-only parameter refused with a reason and changing
+  nothing, an atomic set with one bad value changing nothing, `/parameter_events`
+  naming the node and the new value after a set, and every parameter described in one
+  call (a reply larger than one datagram);
+- services: calibrate_node's `~/calibrate` (refused with the reason before enough
+  samples, then succeeding), `~/commit`, `~/reset`;
+- durability: a transient-local subscriber created after calibrate_node published
+  `~/status` still receives the last status;
+- /rosout: rcl_interfaces/Log records from the node, with its logger name;
+- clean shutdown: SIGTERM makes the node exit with 0, no thread of it having panicked,
+  and leave the graph.
+
+Prints the table of checks with their times and every failure's reason; exits non-zero
+on any failure.
+
+rclpy's Fast DDS asks for 8 MiB UDP socket buffers, as the nodes do for themselves: with
+Fast DDS's default (the OS's 208 KiB) the 2.4 MB annotated images, which RustDDS sends
+as one burst of datagrams, overflow it, and a best-effort subscriber gets none of them
+(`--fastdds-socket-buffer 0` shows it).
+
+Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin stereocal`):
+    .venv/bin/python interop/check_nodes_rclpy.py [--rectify-node PATH]
+        [--calibrate-node PATH] [--stereocal PATH] [--only rectify|calibrate]
+        [--fastdds-socket-buffer BYTES]
+"""
+
+import argparse
+import array
+import json
+import subprocess
+import tempfile
+from pathlib import Path
+
+import cv2
+import numpy as np
+import yaml
+from bag_images import messages as bag_messages
+# ros2_rclpy first: it chooses the middleware before rclpy loads one.
+from ros2_rclpy import (
+    DomainLease, NodeProcess, Parameters, Peer, main_guard, python_value, require,
+    stop_and_check,
+)
+
+from builtin_interfaces.msg import Time
+from rcl_interfaces.msg import Log, ParameterEvent, ParameterType
+from rclpy.qos import (
+    DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_parameter_events,
+    qos_profile_rosout_default, qos_profile_sensor_data,
+)
+from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.srv import SetCameraInfo
+from std_msgs.msg import Header, String
+
+ROOT = Path(__file__).resolve().parent.parent
+RELIABLE = QoSProfile(depth=10)
+STATUS_QOS = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE,
+                        durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+#: Parameters described per call when checking what the descriptors say.
+DESCRIBE_BATCH = 4
+INTEGER, DOUBLE = ParameterType.PARAMETER_INTEGER, ParameterType.PARAMETER_DOUBLE
+TYPE_OF = {bool: ParameterType.PARAMETER_BOOL, int: INTEGER, float: DOUBLE,
+           str: ParameterType.PARAMETER_STRING}
+
+
+def stamp_of(msg):
+    return (msg.header.stamp.sec, msg.header.stamp.nanosec)
+
+
+def header(stamp, frame_id):
+    return Header(stamp=Time(sec=stamp[0], nanosec=stamp[1]), frame_id=frame_id)
+
+
+def image_msg(stamp, frame_id, raw, encoding):
+    height, width = raw.shape[:2]
+    return Image(header=header(stamp, frame_id), height=height, width=width, encoding=encoding,
+                 is_bigendian=0, step=raw.strides[0], data=array.array("B", raw.tobytes()))
+
+
+def graph_check(peer, name, namespace, expected):
+    """The node's endpoints by kind ({kind: {topic: [types]}}) equal `expected`, and its
+    topics are in the graph's topic list with the same types."""
+    def mismatches():
+        try:
+            got = peer.entities_of(name, namespace)
+        except Exception as e:  # the graph may not know the node's endpoints yet
+            return [f"{namespace}/{name}: {e}"]
+        problems = []
+        for kind, want in expected.items():
+            have = got[kind]
+            problems += [f"{kind}: missing {t} {want[t]}" for t in sorted(set(want) - set(have))]
+            problems += [f"{kind}: unexpected {t} {have[t]}" for t in sorted(set(have) - set(want))]
+            problems += [f"{kind}: {t} has types {have[t]}, not {want[t]}"
+                         for t in sorted(set(want) & set(have)) if have[t] != sorted(want[t])]
+        topics = dict(peer.node.get_topic_names_and_types())
+        for kind in ("publishers", "subscribers"):
+            problems += [f"topic list: {t} {topics.get(t)}, not {types}"
+                         for t, types in expected[kind].items() if topics.get(t) != types]
+        return problems
+
+    last = []
+
+    def settled():
+        last[:] = mismatches()
+        return not last
+    # Endpoints are discovered one by one: wait until the graph shows them all.
+    peer.wait_until(settled, lambda: "the documented endpoints; still: " + "; ".join(last))
+
+
+def parameter_services(fqn):
+    return {f"{fqn}/{service}": [f"rcl_interfaces/srv/{srv}"] for service, srv in (
+        ("describe_parameters", "DescribeParameters"),
+        ("get_parameter_types", "GetParameterTypes"), ("get_parameters", "GetParameters"),
+        ("list_parameters", "ListParameters"), ("set_parameters", "SetParameters"),
+        ("set_parameters_atomically", "SetParametersAtomically"))}
+
+
+def same_value(got, want):
+    if isinstance(want, float):
+        return isinstance(got, float) and abs(got - want) <= 1e-12 * max(1.0, abs(want))
+    return type(got) is type(want) and got == want
+
+
+def common_parameter_checks(checks, label, params, documented, read_only, constraints, refuse):
+    """list/get/get_types and describe of a node whose parameters are `documented`
+    ({name: start-up value}), `read_only` names, and `constraints` ({name: allowed
+    values}); then a set of each parameter of `refuse` (read-only), which must be
+    refused."""
+    with checks.check(label, "parameters: list (prefixes, depth), get, get_parameter_types"):
+        names, _ = params.list()
+        require(set(documented) <= set(names),
+                f"list_parameters misses {sorted(set(documented) - set(names))}: {names}")
+        some = sorted(documented)[:2]
+        got, _ = params.list(prefixes=some, depth=1)
+        require(got == some, f"list_parameters(prefixes={some}, depth=1): {got}")
+        got, _ = params.list(prefixes=[some[0][:3]])
+        require(got == [], f"prefix {some[0][:3]!r} matches no whole name, yet: {got}")
+        got, _ = params.list(depth=1)
+        flat = [n for n in names if "." not in n]
+        require(got == flat, f"list_parameters(depth=1): {got}, not {flat}")
+        values = params.get(list(documented))
+        wrong = [f"{n}={v!r} (expected {documented[n]!r})"
+                 for n, v in zip(documented, values) if not same_value(v, documented[n])]
+        require(len(values) == len(documented) and not wrong, f"get_parameters: {wrong or values}")
+        types = params.get_types(list(documented))
+        want = [TYPE_OF[type(v)] for v in documented.values()]
+        require(types == want, f"get_parameter_types: {types}, not {want}")
+
+    with checks.check(label, "parameters: describe (descriptions, ranges, constraints)"):
+        names, _ = params.list()
+        types = dict(zip(names, params.get_types(names)))
+        # A few names a call, so that what the descriptors say is checked apart from
+        # the size of the reply (see `describe_all_check`).
+        descriptors = [d for at in range(0, len(names), DESCRIBE_BATCH)
+                       for d in params.describe(names[at:at + DESCRIBE_BATCH])]
+        require(len(descriptors) == len(names),
+                f"{len(descriptors)} descriptors for {len(names)} parameters")
+        problems = []
+        for name, d in zip(names, descriptors):
+            if d.name != name or d.type != types[name]:
+                problems.append(
+                    f"{name}: descriptor of {d.name!r} type {d.type}, not {types[name]}")
+            if not d.description.strip():
+                problems.append(f"{name}: no description")
+            if types[name] == INTEGER and not (
+                    len(d.integer_range) == 1 and d.integer_range[0].step == 1
+                    and d.integer_range[0].from_value <= d.integer_range[0].to_value):
+                problems.append(f"{name}: integer_range {list(d.integer_range)}")
+            if types[name] == DOUBLE and not (
+                    len(d.floating_point_range) == 1 and d.floating_point_range[0].step == 0.0
+                    and d.floating_point_range[0].from_value <= d.floating_point_range[0].to_value):
+                problems.append(f"{name}: floating_point_range {list(d.floating_point_range)}")
+            if name in documented and d.read_only != (name in read_only):
+                problems.append(f"{name}: read_only {d.read_only}")
+            missing = [v for v in constraints.get(name, []) if v not in d.additional_constraints]
+            if missing:
+                problems.append(f"{name}: additional_constraints {d.additional_constraints!r} "
+                                f"do not name {missing}")
+        require(not problems, "; ".join(problems))
+
+    for name in refuse:
+        with checks.check(label, f"parameters: set of read-only {name} refused"):
+            before = documented[name]
+            value = before + 1 if isinstance(before, int) else "x"
+            [result] = params.set({name: value})
+            require(not result.successful and result.reason.strip(),
+                    f"set {name}={value!r}: successful={result.successful}, "
+                    f"reason {result.reason!r}")
+            [now] = params.get([name])
+            require(now == before, f"{name} is {now!r} after a refused set, not {before!r}")
+
+
+def describe_all_check(checks, label, params):
+    """Every parameter described in one call, as `ros2 param describe NODE $(ros2 param
+    list NODE)` asks: a reply that may need more than one datagram."""
+    with checks.check(label, "parameters: describe all in one call"):
+        names, _ = params.list()
+        descriptors = params.describe(names)
+        require([d.name for d in descriptors] == names,
+                f"descriptors of {[d.name for d in descriptors]} for {names}")
+
+
+# ---------------------------------------------------------------------------------------
+# rectify_node
+
+WIDTH, HEIGHT = 320, 240
+K = [260.0, 0.0, 161.5, 0.0, 262.0, 118.5, 0.0, 0.0, 1.0]
+D = [-0.25, 0.08, 0.001, -0.0005, 0.0]
+ANGLE = 0.03
+R = [np.cos(ANGLE), 0.0, np.sin(ANGLE), 0.0, 1.0, 0.0, -np.sin(ANGLE), 0.0, np.cos(ANGLE)]
+P = [240.0, 0.0, 158.0, 0.0, 0.0, 240.0, 121.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+
+
+def pixels(index, channels):
+    """A checkerboard with gradients: nearest and bilinear rectification differ on it."""
+    y, x = np.mgrid[0:HEIGHT, 0:WIDTH]
+    checker = ((x // 20 + y // 20) % 2) * 160
+    planes = [checker + (x * 3 + y * 5 + c * 40 + index * 11) % 90 for c in range(channels)]
+    return np.stack(planes, axis=-1).astype(np.uint8)
+
+
+def opencv_rectified(raw, interpolation):
+    maps = cv2.initUndistortRectifyMap(
+        np.reshape(K, (3, 3)), np.array(D), np.reshape(R, (3, 3)), np.reshape(P, (3, 4)),
+        (WIDTH, HEIGHT), cv2.CV_16SC2)
+    out = cv2.remap(raw, *maps, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
+    return out.reshape(HEIGHT, WIDTH, -1)
+
+
+def camera_info_msg(stamp, k=K):
+    return CameraInfo(header=header(stamp, "cam_optical"), height=HEIGHT, width=WIDTH,
+                      distortion_model="plumb_bob", d=D, k=k, r=R, p=P)
+
+
+class Rectify:
+    """rectify_node in /cam, its image remapped from image_raw, and rclpy around it."""
+    label, name, namespace = "rectify_node", "rectify_node", "/cam"
+    fqn = "/cam/rectify_node"
+
+    def __init__(self, peer, binary):
+        self.peer = peer
+        node = peer.node
+        self.image_pub = node.create_publisher(Image, "/cam/image_raw", RELIABLE)
+        self.info_pub = node.create_publisher(CameraInfo, "/cam/camera_info", RELIABLE)
+        self.reliable = peer.subscribe(Image, "/cam/image_rect", RELIABLE)
+        self.sensor = peer.subscribe(Image, "/cam/image_rect", qos_profile_sensor_data)
+        self.events = peer.subscribe(ParameterEvent, "/parameter_events",
+                                     qos_profile_parameter_events)
+        self.process = NodeProcess(
+            [binary, "--ros-args", "-r", "__ns:=/cam", "-r", "image:=image_raw"], peer.domain)
+        peer.watch(self.process)
+        self.params = Parameters(peer, self.fqn)
+        self.sent = 0
+
+    def send(self, raw, k=K):
+        """Publishes a frame and its camera_info with a new stamp; returns the stamp."""
+        self.sent += 1
+        stamp = (200, self.sent * 1000)
+        encoding = "rgb8" if raw.shape[2] == 3 else "mono8"
+        self.info_pub.publish(camera_info_msg(stamp, k))
+        self.image_pub.publish(image_msg(stamp, "cam_optical", raw, encoding))
+        return stamp
+
+    def exchange(self, raw):
+        """Sends `raw` until both subscribers received its image_rect; returns them."""
+        stamps = []
+
+        def received():
+            for stamp in stamps:
+                got = [next((m for m in inbox.messages if stamp_of(m) == stamp), None)
+                       for inbox in (self.reliable, self.sensor)]
+                if all(got):
+                    return got
+            return None
+        return self.peer.send_until(
+            lambda: stamps.append(self.send(raw)), received,
+            lambda: f"image_rect of a frame on both subscribers (so far reliable "
+                    f"{self.reliable.count}, best-effort {self.sensor.count})")
+
+
+def rect_difference(msg, raw, interpolation):
+    """Largest |image_rect - OpenCV| in grey levels, after checking the message's layout."""
+    channels = raw.shape[2]
+    want = ("rgb8" if channels == 3 else "mono8", WIDTH, HEIGHT, WIDTH * channels, "cam_optical")
+    got = (msg.encoding, msg.width, msg.height, msg.step, msg.header.frame_id)
+    require(got == want, f"image_rect {got}, expected {want}")
+    image = np.frombuffer(msg.data, dtype=np.uint8).reshape(HEIGHT, WIDTH, channels)
+    return int(np.abs(image.astype(int) - opencv_rectified(raw, interpolation).astype(int)).max())
+
+
+def check_rectify(checks, peer, rosout, binary):
+    r = Rectify(peer, binary)
+    label = r.label
+    try:
+        with checks.check(label, "discovery: name and namespace in the graph"):
+            peer.wait_until(lambda: (r.name, r.namespace) in peer.node_names(),
+                            f"{r.fqn} in get_node_names_and_namespaces()")
+        if not checks.passed(label, "discovery: name and namespace in the graph"):
+            return checks.skip(label, "the other checks", "the node was not discovered")
+
+        with checks.check(label, "graph: topics, services and their types"):
+            graph_check(peer, r.name, r.namespace, {
+                "publishers": {"/cam/image_rect": ["sensor_msgs/msg/Image"],
+                               "/rosout": ["rcl_interfaces/msg/Log"],
+                               "/parameter_events": ["rcl_interfaces/msg/ParameterEvent"]},
+                "subscribers": {"/cam/image_raw": ["sensor_msgs/msg/Image"],
+                                "/cam/camera_info": ["sensor_msgs/msg/CameraInfo"]},
+                "services": parameter_services(r.fqn),
+                "clients": {},
+            })
+
+        with checks.check(label, "/rosout: warning on an uncalibrated camera_info"):
+            peer.wait_until(lambda: r.image_pub.get_subscription_count() > 0
+                            and r.info_pub.get_subscription_count() > 0,
+                            "rectify_node's image and camera_info subscriptions")
+            warning = peer.send_until(
+                lambda: r.send(pixels(0, 1), k=[0.0] * 9),
+                lambda: next((m for m in rosout.messages if m.name == "cam.rectify_node"
+                              and "uncalibrated" in m.msg), None),
+                "a /rosout record of logger cam.rectify_node about the uncalibrated camera_info")
+            require(warning.level == Log.WARN, f"level {warning.level}, not WARN: {warning.msg}")
+
+        with checks.check(label, "QoS: reliable and best-effort subscribers get image_rect") \
+                as note:
+            worst = 0
+            for index in range(4):
+                raw = pixels(index + 1, 3 if index % 2 else 1)
+                for msg in r.exchange(raw):
+                    worst = max(worst, rect_difference(msg, raw, cv2.INTER_LINEAR))
+            require(worst <= 1, f"image_rect differs from OpenCV (bilinear) by {worst}")
+            note(f"4 frames (mono8, rgb8) on each; |image_rect - OpenCV bilinear| <= {worst}")
+
+        common_parameter_checks(
+            checks, label, r.params, {"interpolation": 1, "queue_size": 5},
+            read_only=["queue_size"], constraints={}, refuse=["queue_size"])
+
+        with checks.check(label, "parameters: set interpolation 0 takes effect (nearest)") \
+                as note:
+            [result] = r.params.set({"interpolation": 0})
+            require(result.successful, f"set interpolation=0 refused: {result.reason!r}")
+            require(r.params.get(["interpolation"]) == [0], "interpolation is not 0 after the set")
+            raw = pixels(9, 1)
+            for msg in r.exchange(raw):
+                nearest = rect_difference(msg, raw, cv2.INTER_NEAREST)
+                linear = rect_difference(msg, raw, cv2.INTER_LINEAR)
+                require(nearest <= 1 and linear > 1, f"image_rect differs from OpenCV nearest "
+                        f"by {nearest}, bilinear by {linear}")
+            note(f"|image_rect - OpenCV nearest| <= {nearest}, bilinear {linear}")
+
+        with checks.check(label, "/parameter_events: the set of interpolation"):
+            def event():
+                for e in r.events.messages:
+                    changed = {p.name: python_value(p.value) for p in e.changed_parameters}
+                    if e.node == r.fqn and changed.get("interpolation") == 0:
+                        return e
+                return None
+            peer.wait_until(event, lambda: "a ParameterEvent of node /cam/rectify_node changing "
+                            "interpolation to 0; received: " + repr(
+                                [(e.node, [p.name for p in e.changed_parameters])
+                                 for e in r.events.messages][-5:]), timeout=20)
+
+        with checks.check(label, "parameters: interpolation 7 (out of range) refused"):
+            [result] = r.params.set({"interpolation": 7})
+            require(not result.successful and result.reason.strip(),
+                    f"successful={result.successful}, reason {result.reason!r}")
+            now = r.params.get(["interpolation"])
+            require(now == [0], f"interpolation is {now} after a refused set, not [0]")
+
+        with checks.check(label, "parameters: atomic set with a bad value changes nothing"):
+            result = r.params.set_atomically({"interpolation": 2, "queue_size": -1})
+            require(not result.successful and result.reason.strip(),
+                    f"successful={result.successful}, reason {result.reason!r}")
+            now = r.params.get(["interpolation", "queue_size"])
+            require(now == [0, 5], f"interpolation, queue_size are {now}, not [0, 5]")
+
+        describe_all_check(checks, label, r.params)
+    finally:
+        stop_and_check(checks, peer, r.process, label, r.name, r.namespace)
+
+
+# ---------------------------------------------------------------------------------------
+# calibrate_node
+
+FRAMES, SEED = 40, 3
+LEFT, RIGHT = "/stereo/left/image_raw", "/stereo/right/image_raw"
+
+
+def read_pairs(bag):
+    """The bag's (left, right) images in stamp order, as rclpy messages."""
+    frames = {LEFT: [], RIGHT: []}
+    for topic, m in bag_messages(bag, frames):
+        frames[topic].append(Image(
+            header=header(stamp_of(m), m.header.frame_id), height=m.height, width=m.width,
+            encoding=m.encoding, is_bigendian=m.is_bigendian, step=m.step,
+            data=array.array("B", m.data.tobytes())))
+    return list(zip(frames[LEFT], frames[RIGHT]))
+
+
+def rotation_error_degrees(r, r_true):
+    angle, _ = cv2.Rodrigues(np.asarray(r).reshape(3, 3) @ np.asarray(r_true).reshape(3, 3).T)
+    return float(np.degrees(np.linalg.norm(angle)))
+
+
+class Calibrate:
+    """calibrate_node (stereo) in /stereo on image_raw, and rclpy around it: publishers
+    of the pair, subscribers of its status and annotated images, a set_camera_info
+    server for the left camera."""
+    label, name, namespace = "calibrate_node", "calibrate_node", "/stereo"
+    fqn = "/stereo/calibrate_node"
+
+    def __init__(self, peer, binary, tmp, truth):
+        self.peer = peer
+        node = peer.node
+        self.left = node.create_publisher(Image, LEFT, RELIABLE)
+        self.right = node.create_publisher(Image, RIGHT, RELIABLE)
+        self.status = peer.subscribe(String, f"{self.fqn}/status", STATUS_QOS)
+        left, right = f"{self.fqn}/left/annotated_image", f"{self.fqn}/right/annotated_image"
+        self.annotated = {
+            "left, reliable": peer.subscribe(Image, left, RELIABLE, keep=2),
+            "left, best-effort": peer.subscribe(Image, left, qos_profile_sensor_data, keep=2),
+            "right, reliable": peer.subscribe(Image, right, RELIABLE, keep=2),
+        }
+        self.camera_infos = []
+        node.create_service(SetCameraInfo, "/stereo/left/set_camera_info", self.set_camera_info)
+        board = truth["board"]
+        self.files = {name: tmp / f"{name}.yaml" for name in ("left", "right")}
+        self.documented = {
+            "pattern": "chessboard",
+            "size": f"{board['inner_corners_cols']}x{board['inner_corners_rows']}",
+            "square": float(board["square_size_m"]), "marker_size": 0.0,
+            "dictionary": "4x4_50", "model": "plumb_bob", "stereo": True,
+            "camera_name": "camera", "left_camera_name": "left", "right_camera_name": "right",
+            "slop": 0.0, "max_board_speed": 0.0, "max_blur": 5.0, "auto_calibrate": False,
+            "state_dir": str(tmp / "state"), "camera_info_url": "",
+            "left_camera_info_url": f"file://{self.files['left']}",
+            "right_camera_info_url": f"file://{self.files['right']}", "queue_size": 5,
+        }
+        overrides = [a for name in ("stereo", "size", "square", "state_dir",
+                                    "left_camera_info_url", "right_camera_info_url")
+                     for a in ("-p", f"{name}:={self.documented[name]}")]
+        self.process = NodeProcess(
+            [binary, "--ros-args", "-r", "__ns:=/stereo", "-r", "left/image:=left/image_raw",
+             "-r", "right/image:=right/image_raw", *overrides], peer.domain)
+        peer.watch(self.process)
+        self.params = Parameters(peer, self.fqn)
+
+    def set_camera_info(self, request, response):
+        self.camera_infos.append(request.camera_info)
+        response.success = True
+        response.status_message = "stored"
+        return response
+
+    def last_status(self):
+        return json.loads(self.status.last.data) if self.status.last else None
+
+    def send_pair(self, pair):
+        """Sends a pair until the node has judged one more frame."""
+        judged = self.last_status()["frames"]["judged"]
+
+        def send():
+            self.left.publish(pair[0])
+            self.right.publish(pair[1])
+        self.peer.send_until(
+            send, lambda: self.last_status()["frames"]["judged"] > judged,
+            lambda: f"the pair at {stamp_of(pair[0])} judged; status {self.last_status()}")
+
+
+def check_calibration(calibration, truth):
+    """The calibration in ~/status against the session's ground truth; returns the
+    errors found, in words."""
+    errors, worst = [], 0.0
+    for record in truth["cameras"]:
+        k_true = np.reshape(record["camera_matrix_row_major"], (3, 3))
+        k = np.reshape(calibration["cameras"][record["name"]]["k"], (3, 3))
+        for what, got, want in (("fx", k[0, 0], k_true[0, 0]), ("fy", k[1, 1], k_true[1, 1]),
+                                ("cx", k[0, 2], k_true[0, 2]), ("cy", k[1, 2], k_true[1, 2])):
+            worst = max(worst, abs(got - want))
+            if abs(got - want) >= 0.2:
+                errors.append(f"{record['name']} {what} {got:.3f}, truth {want:.3f}")
+    rt = truth["extrinsics"]["right_from_left"]
+    ours = calibration["stereo"]["right_from_left"]
+    angle = rotation_error_degrees(ours["rotation"], rt["rotation_row_major"])
+    offset = np.linalg.norm(np.subtract(ours["translation"], rt["translation_m"])) * 1e3
+    if angle >= 0.1 or offset >= 1.0:
+        errors.append(f"right_from_left off the truth by {angle:.4f} deg, {offset:.3f} mm")
+    require(not errors, "; ".join(errors))
+    return (f"fx fy cx cy within {worst:.3f} px of the truth, right_from_left "
+            f"{angle:.4f} deg and {offset:.3f} mm off")
+
+
+def check_camera_file(path, camera, calibration, size):
+    """A committed camera_info YAML, read with PyYAML, against the calibration."""
+    require(path.exists(), f"{path} not written")
+    data = yaml.safe_load(path.read_text())
+    ours = calibration["cameras"][camera]
+    require(data["camera_name"] == camera and (data["image_width"], data["image_height"]) == size,
+            f"{path}: camera {data['camera_name']!r}, {data['image_width']}x{data['image_height']}")
+    require(data["distortion_model"] == ours["distortion_model"],
+            f"{path}: distortion_model {data['distortion_model']!r}")
+    for key, rows, cols in (("camera_matrix", 3, 3), ("rectification_matrix", 3, 3),
+                            ("projection_matrix", 3, 4)):
+        m = data[key]
+        require((m["rows"], m["cols"], len(m["data"])) == (rows, cols, rows * cols),
+                f"{path}: {key} is {m['rows']}x{m['cols']} with {len(m['data'])} values")
+    require(np.allclose(data["camera_matrix"]["data"], ours["k"], rtol=1e-9),
+            f"{path}: K {data['camera_matrix']['data']}, calibration {ours['k']}")
+    require(np.allclose(data["distortion_coefficients"]["data"], ours["d"], rtol=1e-9, atol=1e-15),
+            f"{path}: D {data['distortion_coefficients']['data']}, calibration {ours['d']}")
+    r = np.reshape(data["rectification_matrix"]["data"], (3, 3))
+    require(np.allclose(r @ r.T, np.eye(3), atol=1e-9) and abs(np.linalg.det(r) - 1) < 1e-9,
+            f"{path}: R is not a rotation: {r.tolist()}")
+    return data
+
+
+def check_calibrate(checks, peer, rosout, binary, stereocal):
+    label = Calibrate.label
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        with checks.check(label, f"setup: stereocal synth, {FRAMES} stereo frames"):
+            run = subprocess.run([stereocal, "synth", "--scene", "calibration", "--frames",
+                                  str(FRAMES), "--seed", str(SEED), "--out", tmp / "scene"],
+                                 capture_output=True, text=True)
+            require(run.returncode == 0, f"stereocal synth failed:\n{run.stderr}")
+            truth = json.loads((tmp / "scene" / "ground_truth.json").read_text())
+            pairs = read_pairs(tmp / "scene" / "bag")
+            require(len(pairs) == FRAMES, f"the synthesized bag has {len(pairs)} pairs")
+        if not checks.passed(label, f"setup: stereocal synth, {FRAMES} stereo frames"):
+            return checks.skip(label, "the other checks", "no synthesized session")
+        size = (pairs[0][0].width, pairs[0][0].height)
+        c = Calibrate(peer, binary, tmp, truth)
+        try:
+            calibrate_checks(checks, peer, rosout, c, pairs, truth, size)
+        finally:
+            stop_and_check(checks, peer, c.process, label, c.name, c.namespace)
+
+
+def calibrate_checks(checks, peer, rosout, c, pairs, truth, size):
+    label, fqn = c.label, c.fqn
+    with checks.check(label, "discovery: name and namespace in the graph"):
+        peer.wait_until(lambda: (c.name, c.namespace) in peer.node_names(),
+                        f"{fqn} in get_node_names_and_namespaces()")
+    if not checks.passed(label, "discovery: name and namespace in the graph"):
+        return checks.skip(label, "the other checks", "the node was not discovered")
+
+    with checks.check(label, "graph: topics, services, clients and their types"):
+        trigger = ["std_srvs/srv/Trigger"]
+        graph_check(peer, c.name, c.namespace, {
+            "publishers": {f"{fqn}/status": ["std_msgs/msg/String"],
+                           f"{fqn}/left/annotated_image": ["sensor_msgs/msg/Image"],
+                           f"{fqn}/right/annotated_image": ["sensor_msgs/msg/Image"],
+                           "/rosout": ["rcl_interfaces/msg/Log"],
+                           "/parameter_events": ["rcl_interfaces/msg/ParameterEvent"]},
+            "subscribers": {LEFT: ["sensor_msgs/msg/Image"], RIGHT: ["sensor_msgs/msg/Image"]},
+            "services": {f"{fqn}/calibrate": trigger, f"{fqn}/commit": trigger,
+                         f"{fqn}/reset": trigger, **parameter_services(fqn)},
+            "clients": {"/stereo/left/set_camera_info": ["sensor_msgs/srv/SetCameraInfo"],
+                        "/stereo/right/set_camera_info": ["sensor_msgs/srv/SetCameraInfo"]},
+        })
+
+    with checks.check(label, "~/status: progress JSON at start-up"):
+        status = peer.wait_until(c.last_status, f"{fqn}/status")
+        require([cam["name"] for cam in status["cameras"]] == ["left", "right"]
+                and status["samples"] == 0 and status["calibration"] is None,
+                f"start-up status {status}")
+    if not checks.passed(label, "~/status: progress JSON at start-up"):
+        return checks.skip(label, "the other checks", "no ~/status to follow the node by")
+
+    with checks.check(label, "~/calibrate and ~/commit refused before enough samples"):
+        early = peer.trigger(f"{fqn}/calibrate")
+        require(not early.success and "not enough samples" in early.message,
+                f"~/calibrate: success={early.success}, {early.message!r}")
+        early = peer.trigger(f"{fqn}/commit")
+        require(not early.success and "~/calibrate first" in early.message,
+                f"~/commit: success={early.success}, {early.message!r}")
+
+    with checks.check(label, f"session: {FRAMES} pairs from rclpy judged, coverage ready") as note:
+        peer.wait_until(lambda: c.left.get_subscription_count() > 0
+                        and c.right.get_subscription_count() > 0,
+                        "calibrate_node's image subscriptions")
+        for pair in pairs:
+            c.send_pair(pair)
+        status = c.last_status()
+        require(status["frames"]["judged"] >= FRAMES and status["ready"]
+                and 20 <= status["samples"] < FRAMES, f"after {FRAMES} pairs: {status}")
+        note(f"{status['samples']} samples kept, frames {status['frames']}")
+
+    with checks.check(label, "QoS: reliable and best-effort subscribers get annotated images") \
+            as note:
+        sent = {stamp_of(p[0]) for p in pairs}
+        for what, inbox in c.annotated.items():
+            peer.wait_until(lambda: inbox.count > 0, f"an annotated image ({what})")
+            m = inbox.last
+            require((m.encoding, m.width, m.height, m.step) == ("rgb8", *size, size[0] * 3)
+                    and stamp_of(m) in sent,
+                    f"annotated image ({what}): {m.encoding} {m.width}x{m.height} "
+                    f"step {m.step} at {stamp_of(m)}")
+        note("received " + ", ".join(f"{i.count} ({w})" for w, i in c.annotated.items()))
+
+    with checks.check(label, "/rosout: 'sample added' records"):
+        peer.wait_until(lambda: any(m.name == "stereo.calibrate_node" and "sample added" in m.msg
+                                    for m in rosout.messages),
+                        "a /rosout record of logger stereo.calibrate_node saying 'sample added'",
+                        timeout=20)
+
+    with checks.check(label, "~/calibrate: result against the ground truth") as note:
+        answer = peer.trigger(f"{fqn}/calibrate")
+        require(answer.success, f"~/calibrate refused: {answer.message!r}")
+        for part in ("left: RMS", "right: RMS", "epipolar RMS"):
+            require(part in answer.message, f"~/calibrate answered {answer.message!r}")
+        status = peer.wait_until(lambda: c.last_status()["calibration"] and c.last_status(),
+                                 "a ~/status with the calibration")
+        note(check_calibration(status["calibration"], truth))
+
+    with checks.check(label, "~/commit: camera_info YAML and set_camera_info"):
+        statuses = c.status.count
+        answer = peer.trigger(f"{fqn}/commit")
+        require(answer.success, f"~/commit failed: {answer.message!r}")
+        for part in ("acknowledged by /stereo/left/set_camera_info",
+                     "no /stereo/right/set_camera_info server answered"):
+            require(part in answer.message, f"~/commit answered {answer.message!r}")
+        calibration = c.last_status()["calibration"]
+        files = {cam: check_camera_file(path, cam, calibration, size)
+                 for cam, path in c.files.items()}
+        require(files["left"]["projection_matrix"]["data"][5:7]
+                == files["right"]["projection_matrix"]["data"][5:7],
+                "the pair's projection matrices do not share fy and cy")
+        require(len(c.camera_infos) == 1, f"set_camera_info got {len(c.camera_infos)} requests")
+        info, left = c.camera_infos[0], files["left"]
+        for field, key in (("k", "camera_matrix"), ("r", "rectification_matrix"),
+                           ("p", "projection_matrix"), ("d", "distortion_coefficients")):
+            sent = list(getattr(info, field))
+            require(np.allclose(sent, left[key]["data"], rtol=1e-9, atol=1e-15),
+                    f"set_camera_info {field} {sent}, file {left[key]['data']}")
+
+    with checks.check(label, "~/status: transient local to a late subscriber"):
+        # The node publishes its status after answering a call: once that one is here,
+        # nothing new is sent, and a subscriber made now can only get it from history.
+        peer.wait_until(lambda: c.status.count > statuses, "the status sent after ~/commit")
+        statuses = c.status.count
+        late = peer.subscribe(String, f"{fqn}/status", STATUS_QOS)
+        peer.wait_until(lambda: late.last and late.last.data == c.status.last.data,
+                        lambda: "the last status on a subscriber created after it was sent; "
+                                f"got {late.count} message(s)")
+        require(c.status.count == statuses, "the node sent a new status meanwhile")
+
+    with checks.check(label, "~/reset: every sample forgotten"):
+        answer = peer.trigger(f"{fqn}/reset")
+        require(answer.success, f"~/reset failed: {answer.message!r}")
+        peer.wait_until(lambda: c.last_status()["samples"] == 0
+                        and c.last_status()["calibration"] is None,
+                        lambda: f"a status with no samples; last {c.last_status()}")
+        again = peer.trigger(f"{fqn}/calibrate")
+        require(not again.success, f"~/calibrate after ~/reset: {again.message!r}")
+
+    # The node reads every parameter once, at start-up: all are read-only.
+    common_parameter_checks(
+        checks, label, c.params, c.documented, read_only=list(c.documented),
+        constraints={"pattern": ["chessboard", "charuco"],
+                     "model": ["plumb_bob", "rational_polynomial", "equidistant"]},
+        refuse=["queue_size", "pattern"])
+    describe_all_check(checks, label, c.params)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rectify-node", default=str(ROOT / "target" / "debug" / "rectify_node"))
+    parser.add_argument("--calibrate-node",
+                        default=str(ROOT / "target" / "debug" / "calibrate_node"))
+    parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
+    parser.add_argument("--only", choices=("rectify", "calibrate"))
+    parser.add_argument("--fastdds-socket-buffer", type=int, default=8 * 1024 * 1024,
+                        help="bytes of Fast DDS's UDP socket buffers; 0 keeps its default")
+    args = parser.parse_args()
+    for binary in (args.rectify_node, args.calibrate_node, args.stereocal):
+        if not Path(binary).exists():
+            raise SystemExit(f"{binary} not found; build it with `cargo build --bin rectify_node "
+                             "--bin calibrate_node --bin stereocal`")
+
+    def run(checks):
+        lease = DomainLease()
+        peer = Peer(lease.id, socket_buffer=args.fastdds_socket_buffer)
+        print(f"rclpy {peer.rmw} on ROS domain {lease.id}", flush=True)
+        rosout = peer.subscribe(Log, "/rosout", qos_profile_rosout_default)
+        try:
+            if args.only in (None, "rectify"):
+                check_rectify(checks, peer, rosout, args.rectify_node)
+            if args.only in (None, "calibrate"):
+                check_calibrate(checks, peer, rosout, args.calibrate_node, args.stereocal)
+        finally:
+            peer.close()
+            lease.release()
+
+    main_guard(run)
+
+
+if __name__ == "__main__":
+    main()
