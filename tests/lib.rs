@@ -11,4 +11,5 @@ mod bundled_bags;
 mod calibrate;
 mod common;
 mod node_config;
+mod play;
 mod rectify;

@@ -20,6 +20,9 @@ enum Command {
     /// The main job on the bundled stereo bag: rectify it offline and through two
     /// rectify nodes over DDS, and measure row alignment against ground truth.
     Demo(cli::demo::DemoArgs),
+    /// Publish a bag's messages over ROS 2 at their recorded pace, optionally with
+    /// /clock, like `ros2 bag play`.
+    Play(cli::play::PlayArgs),
     /// Rectify every image topic of a bag that has a camera_info into <ns>/image_rect.
     Rectify(cli::rectify::RectifyArgs),
     /// Render a synthetic scene with exact ground truth into a rosbag2 bag.
@@ -36,6 +39,7 @@ fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
         Command::Calibrate(args) => cli::calibrate::run(&args),
         Command::Demo(args) => cli::demo::run(&args),
+        Command::Play(args) => cli::play::run(&args),
         Command::Rectify(args) => cli::rectify::run(&args),
         Command::Synth(args) => cli::synth::run_command(&args),
         Command::Node { node } => cli::node::run(node),

@@ -4,5 +4,6 @@
 pub mod calibrate;
 pub mod demo;
 pub mod node;
+pub mod play;
 pub mod rectify;
 pub mod synth;

@@ -10,7 +10,8 @@
 //! [`clock`] is the node's clock (system, or `/clock` with `use_sim_time`), [`qos`]
 //! holds the QoS profiles of DESIGN.md, [`stamp`] the one stamp type, [`sync`]
 //! synchronizes a node's inputs by stamp (streams with each other, camera_info with
-//! them), [`service`] serves and calls ROS 2 services, [`queue`] is the bounded
+//! them), [`raw`] carries a message of any type as its CDR bytes, [`service`] serves
+//! and calls ROS 2 services, [`queue`] is the bounded
 //! drop-oldest queue between receiving and processing, [`sequence_gaps`] counts frames
 //! lost before reception, [`logging`] writes to stderr and `/rosout`, [`throttle`] keeps
 //! repeated warnings rare, [`shutdown`] turns SIGINT/SIGTERM into a clean stop,
@@ -36,6 +37,7 @@ pub mod params;
 pub mod params_file;
 pub mod qos;
 pub mod queue;
+pub mod raw;
 pub mod sequence_gaps;
 pub mod service;
 pub mod shutdown;

@@ -3,6 +3,7 @@
 //! logging, the DDS participant on `ROS_DOMAIN_ID`, and the background spinner that
 //! answers discovery.
 
+use std::future::Future;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
@@ -22,6 +23,7 @@ use super::names::NodeIdentity;
 use super::param_services::ParameterServices;
 use super::param_store::ParameterStore;
 use super::params::{ParamSpec, startup_params, type_name};
+use super::raw::RawCdr;
 use super::service::{self, ServiceClient, ServiceServer};
 use super::shutdown::Shutdown;
 use super::transport::{TransportConfig, TransportError};
@@ -101,20 +103,31 @@ pub(crate) fn create_topic<M: RosMessage>(
     name: &str,
     qos: &QosProfile,
 ) -> Result<ros2_client::dds::rustdds::Topic> {
+    create_topic_of_type(node, name, M::TYPE_NAME, qos)
+}
+
+/// The DDS topic of messages of ROS type `type_name` (`pkg/msg/Type`) on the absolute
+/// ROS topic `name`.
+fn create_topic_of_type(
+    node: &mut Node,
+    name: &str,
+    type_name: &str,
+    qos: &QosProfile,
+) -> Result<ros2_client::dds::rustdds::Topic> {
     let ros_name = Name::parse(name).map_err(|e| RuntimeError::Name {
         name: name.to_owned(),
         reason: format!("{e:?}"),
     })?;
-    node.create_topic(&ros_name, message_type_name::<M>()?, qos)
+    node.create_topic(&ros_name, message_type_name(type_name)?, qos)
         .map_err(|e| middleware(&format!("topic {name}"), e))
 }
 
 /// ROS's `pkg/msg/Type` as ros2-client's message type name.
-fn message_type_name<M: RosMessage>() -> Result<MessageTypeName> {
-    match M::TYPE_NAME.split('/').collect::<Vec<_>>().as_slice() {
+fn message_type_name(type_name: &str) -> Result<MessageTypeName> {
+    match type_name.split('/').collect::<Vec<_>>().as_slice() {
         [package, "msg", name] => Ok(MessageTypeName::new(package, name)),
         _ => Err(RuntimeError::Name {
-            name: M::TYPE_NAME.to_string(),
+            name: type_name.to_string(),
             reason: "a message type name has the form package/msg/Type".into(),
         }),
     }
@@ -414,6 +427,48 @@ impl RosNode {
         Ok(publisher)
     }
 
+    /// Creates a publisher of recorded samples of ROS type `type_name` (`pkg/msg/Type`)
+    /// on topic `name` (resolved for this node) with `qos`.
+    pub fn advertise_raw(
+        &mut self,
+        name: &str,
+        type_name: &str,
+        qos: QosProfile,
+    ) -> Result<Publisher<RawCdr>> {
+        let resolved = self.resolve_topic(name)?;
+        let topic = create_topic_of_type(self.node_mut()?, &resolved, type_name, &qos)?;
+        let publisher = self
+            .node_mut()?
+            .create_publisher(&topic, Some(qos))
+            .map_err(|e| middleware(&format!("publisher on {resolved}"), e))?;
+        log::debug!("publishing {resolved} ({type_name})");
+        Ok(publisher)
+    }
+
+    /// Waits until a subscription has matched `publisher` (one of this node's), at
+    /// most until `deadline`; whether one did.
+    pub fn wait_for_subscription<M: Serialize>(
+        &self,
+        publisher: &Publisher<M>,
+        deadline: std::time::Instant,
+    ) -> bool {
+        let Ok(node) = self.node() else {
+            return false;
+        };
+        let mut wait = std::pin::pin!(publisher.wait_for_subscription(node));
+        let waker = futures::task::noop_waker();
+        let mut context = std::task::Context::from_waker(&waker);
+        loop {
+            if wait.as_mut().poll(&mut context).is_ready() {
+                return true;
+            }
+            if std::time::Instant::now() >= deadline {
+                return false;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        }
+    }
+
     /// Serves service `name` (resolved for this node, e.g. `~/calibrate`).
     pub fn create_server<Req, Resp>(&mut self, name: &str) -> Result<ServiceServer<Req, Resp>>
     where
@@ -457,7 +512,7 @@ mod tests {
 
     #[test]
     fn message_types_map_to_dds_type_names() -> Result<()> {
-        let name = message_type_name::<stereocal_msgs::sensor_msgs::Image>()?;
+        let name = message_type_name(stereocal_msgs::sensor_msgs::Image::TYPE_NAME)?;
         assert_eq!(name.dds_msg_type(), "sensor_msgs::msg::dds_::Image_");
         Ok(())
     }
