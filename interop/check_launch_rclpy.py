@@ -9,7 +9,7 @@ names and namespaces, the topics they subscribe and publish, the services they c
 and the parameter values from the params file and the launch arguments. Every node must
 then stop cleanly on SIGTERM, as it does when `ros2 launch` is interrupted.
 
-Usage (after `cargo build --bin rectify_node --bin calibrate_node`):
+Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin stereocal`):
     .venv/bin/python interop/check_launch_rclpy.py
 """
 
@@ -25,11 +25,14 @@ from ros2_rclpy import Checks, DomainLease, NodeProcess, Parameters, Peer, requi
 ROOT = Path(__file__).resolve().parent.parent
 
 RECTIFY_PARAMS = {"interpolation": 1, "queue_size": 5}
+#: Launch arguments that only say where an executable is (left out of the check names).
+EXECUTABLES = {"rectify_node", "calibrate_node", "stereocal"}
 
 
-def cases(rectify_node, calibrate_node):
-    """(launch file, launch arguments, {node: (subscribed, published, called services,
-    parameter values)}) for every launch file, as its documentation describes it."""
+def cases(rectify_node, calibrate_node, stereocal):
+    """(launch file, launch arguments, processes started, {node: (subscribed,
+    published, called services, parameter values)}) for every launch file, as its
+    documentation describes it."""
     stereo_rectify = {
         f"/{side}/rectify_node": (
             {f"/my_stereo/{side}/image_raw": "sensor_msgs/msg/Image",
@@ -60,11 +63,24 @@ def cases(rectify_node, calibrate_node):
             {"stereo": False, "size": "9x6", "square": 0.025, "model": "plumb_bob"},
         )
     }
+    composed = {
+        f"/stereo/{side}/rectify_node": (
+            {f"/stereo/{side}/image_raw": "sensor_msgs/msg/Image",
+             f"/stereo/{side}/camera_info": "sensor_msgs/msg/CameraInfo"},
+            {f"/stereo/{side}/image_rect": "sensor_msgs/msg/Image"},
+            {},
+            RECTIFY_PARAMS,
+        )
+        for side in ("left", "right")
+    }
     return [
-        ("stereo_rectify.launch.py", {"rectify_node": rectify_node, "camera": "/my_stereo"}, stereo_rectify),
+        ("stereo_rectify.launch.py", {"rectify_node": rectify_node, "camera": "/my_stereo"},
+         ["/left/rectify_node", "/right/rectify_node"], stereo_rectify),
         ("calibrate.launch.py", {"calibrate_node": calibrate_node, "stereo": "true", "camera": "/stereo",
-                                 "size": "8x6", "square": "0.03", "slop": "0.01"}, calibrate_stereo),
-        ("calibrate.launch.py", {"calibrate_node": calibrate_node}, calibrate_mono),
+                                 "size": "8x6", "square": "0.03", "slop": "0.01"},
+         ["/stereo/calibrate_node"], calibrate_stereo),
+        ("calibrate.launch.py", {"calibrate_node": calibrate_node}, ["/camera/calibrate_node"], calibrate_mono),
+        ("stereo_rectify_composed.launch.py", {"stereocal": stereocal}, ["stereocal (composition)"], composed),
     ]
 
 
@@ -73,14 +89,22 @@ def split(name):
     return node, namespace or "/"
 
 
-def check_case(checks, launch_file, arguments, expected, workdir):
-    shown = " ".join(f"{k}:={v}" for k, v in arguments.items() if not k.endswith("_node"))
+def process_label(launch):
+    """How a started process is named in the check: its node, or its executable when
+    the launch file gives no node name (a composition names its own nodes)."""
+    if launch.name:
+        return f"{(launch.namespace or '').rstrip('/')}/{launch.name}"
+    return f"{Path(launch.executable).name} (composition)"
+
+
+def check_case(checks, launch_file, arguments, processes, expected, workdir):
+    shown = " ".join(f"{k}:={v}" for k, v in arguments.items() if k not in EXECUTABLES)
     label = f"{launch_file} {shown or '(defaults)'}"
     with checks.check(label, "evaluates: the nodes it starts") as note:
         evaluation = evaluate(str(ROOT / "launch" / launch_file), arguments)
-        started = {f"{n.namespace.rstrip('/')}/{n.name}" for n in evaluation.nodes}
-        require(started == set(expected), f"starts {sorted(started)}, documented {sorted(expected)}")
-        note(", ".join(sorted(started)))
+        started = sorted(process_label(n) for n in evaluation.nodes)
+        require(started == sorted(processes), f"starts {started}, documented {sorted(processes)}")
+        note(", ".join(started))
     if not checks.passed(label, "evaluates: the nodes it starts"):
         return
     lease = DomainLease()
@@ -130,16 +154,19 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rectify-node", default=str(ROOT / "target" / "debug" / "rectify_node"))
     parser.add_argument("--calibrate-node", default=str(ROOT / "target" / "debug" / "calibrate_node"))
+    parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
     args = parser.parse_args()
-    for binary in (args.rectify_node, args.calibrate_node):
+    for binary in (args.rectify_node, args.calibrate_node, args.stereocal):
         if not Path(binary).exists():
-            sys.exit(f"{binary} not found; build it with `cargo build --bin rectify_node --bin calibrate_node`")
+            sys.exit(f"{binary} not found; build it with "
+                     "`cargo build --bin rectify_node --bin calibrate_node --bin stereocal`")
     checks = Checks()
     with tempfile.TemporaryDirectory() as workdir:
         # calibrate_node keeps its samples under $ROS_HOME: a folder of this check's own.
         os.environ["ROS_HOME"] = workdir
-        for launch_file, arguments, expected in cases(args.rectify_node, args.calibrate_node):
-            check_case(checks, launch_file, arguments, expected, workdir)
+        for launch_file, arguments, processes, expected in cases(
+                args.rectify_node, args.calibrate_node, args.stereocal):
+            check_case(checks, launch_file, arguments, processes, expected, workdir)
     return checks.table()
 
 

@@ -97,7 +97,7 @@ class NodeLaunch:
 
     executable: str
     name: str
-    namespace: str
+    namespace: str | None
     params_files: list = field(default_factory=list)
     params: dict = field(default_factory=dict)
     remappings: list = field(default_factory=list)
@@ -109,12 +109,13 @@ class NodeLaunch:
         cmd = [self.executable, *self.arguments, "--ros-args"]
         if self.name:
             cmd += ["-r", f"__node:={self.name}"]
-        if self.namespace:
+        if self.namespace is not None:
             cmd += ["-r", f"__ns:={self.namespace}"]
         for path in self.params_files:
             cmd += ["--params-file", path]
         if self.params:
-            path = os.path.join(workdir, f"{self.namespace.strip('/').replace('/', '_')}_{self.name}.yaml")
+            stem = f"{(self.namespace or '').strip('/').replace('/', '_')}_{self.name or 'node'}"
+            path = os.path.join(workdir, f"{stem}.yaml")
             with open(path, "w") as out:
                 yaml.safe_dump({"/**": {"ros__parameters": self.params}}, out)
             cmd += ["--params-file", path]
@@ -171,9 +172,10 @@ def load(path):
 
 
 def _namespace(value, context):
-    text = perform(value, context) if value is not None else ""
-    if not text:
-        return "/"
+    """The namespace launch_ros passes (None: none, the node keeps its own)."""
+    if value is None:
+        return None
+    text = perform(value, context)
     return text if text.startswith("/") else "/" + text
 
 

@@ -1,13 +1,15 @@
 //! stereocal's nodes, offline commands and the pipeline stages they share, one module
 //! per capability: [`rectify`] and [`calibrate`] (each with its node, stage and what
-//! serves them), [`convert`] between ROS messages and vision types, [`cli`] with one
-//! module per `stereocal` command, and [`tools`] shared by the measuring binaries.
+//! serves them), [`convert`] between ROS messages and vision types, [`composition`]
+//! running several nodes in one process, [`cli`] with one module per `stereocal`
+//! command, and [`tools`] shared by the measuring binaries.
 //!
 //! The node runtime is the `stereocal-runtime` crate, bags the `stereocal-rosbag` crate,
 //! geometry and images the `stereocal-vision` crate.
 
 pub mod calibrate;
 pub mod cli;
+pub mod composition;
 pub mod convert;
 pub mod rectify;
 pub mod tools;

@@ -10,6 +10,7 @@
 mod bundled_bags;
 mod calibrate;
 mod common;
+mod composition;
 mod node_config;
 mod play;
 mod rectify;

@@ -1,7 +1,8 @@
 //! `stereocal node NAME [--ros-args ...]`: runs one of the nodes in this process,
-//! exactly as its own executable would be run by `ros2 launch`; and the `main` of those
-//! executables.
+//! exactly as its own executable would be run by `ros2 launch`, or several of them
+//! (`stereocal node compose FILE`); and the `main` of the node executables.
 
+use std::path::PathBuf;
 use std::process::ExitCode;
 
 /// The nodes `stereocal node` runs.
@@ -20,6 +21,15 @@ pub enum NodeCommand {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         args: Vec<String>,
     },
+    /// Several nodes in this process, as a composition file lists them, like a
+    /// component container.
+    Compose {
+        /// The composition file (YAML: `nodes: [{node: rectify, args: [...]}, ...]`).
+        file: PathBuf,
+        /// ROS arguments for every node (`--ros-args --params-file P ...`).
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
 }
 
 /// Runs the node until SIGINT/SIGTERM.
@@ -27,6 +37,7 @@ pub fn run(command: NodeCommand) -> anyhow::Result<()> {
     match command {
         NodeCommand::Rectify { args } => crate::rectify::node::run(args),
         NodeCommand::Calibrate { args } => crate::calibrate::node::run(args),
+        NodeCommand::Compose { file, args } => crate::composition::run(&file, &args),
     }
 }
 

@@ -5,10 +5,15 @@
 //! `/rosout` as `rcl_interfaces/Log` once the node exists. Records of the DDS libraries
 //! are shown from `Warn` up (every level with `--enable-external-lib-logs`) and stay off
 //! `/rosout`.
+//!
+//! Several nodes may share a process (a composition): each registers its own
+//! [`NodeLog`], and a record goes out under the name, level and `/rosout` of the node
+//! whose thread logged it ([`NodeLog::enter`]); a thread of no node (the DDS
+//! libraries') logs as the first node registered.
 
-use std::cell::Cell;
+use std::cell::{Cell, RefCell};
 use std::io::Write;
-use std::sync::{PoisonError, RwLock};
+use std::sync::{Arc, PoisonError, RwLock};
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use ros2_client::builtin_interfaces::Time;
@@ -44,20 +49,27 @@ pub struct LogConfig {
 
 struct State {
     config: LogConfig,
-    rosout: Option<NodeLoggingHandle>,
+    rosout: RwLock<Option<NodeLoggingHandle>>,
 }
 
+/// One node's logging: its logger name, level, destinations and `/rosout` publisher.
+/// Cheap to clone; every clone is the same node's.
+#[derive(Clone)]
+pub struct NodeLog(Arc<State>);
+
+/// The process logger: every registered node's logging, and the first one, which
+/// threads of no node log as.
 struct NodeLogger {
-    state: RwLock<Option<State>>,
+    first: RwLock<Option<NodeLog>>,
 }
 
 static LOGGER: NodeLogger = NodeLogger {
-    state: RwLock::new(None),
+    first: RwLock::new(None),
 };
 
 thread_local! {
-    // Publishing on /rosout may itself log; such records must not loop back.
     static IN_LOGGER: Cell<bool> = const { Cell::new(false) };
+    static CURRENT: RefCell<Option<NodeLog>> = const { RefCell::new(None) };
 }
 
 fn rank(level: log::Level) -> LogLevel {
@@ -95,12 +107,24 @@ impl NodeLogger {
     }
 }
 
+impl NodeLogger {
+    /// The logging of the node whose thread this is, or of the first node.
+    fn current(&self) -> Option<NodeLog> {
+        CURRENT
+            .with(|current| current.borrow().clone())
+            .or_else(|| {
+                self.first
+                    .read()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .clone()
+            })
+    }
+}
+
 impl log::Log for NodeLogger {
     fn enabled(&self, metadata: &log::Metadata<'_>) -> bool {
-        let state = self.state.read().unwrap_or_else(PoisonError::into_inner);
-        state
-            .as_ref()
-            .is_some_and(|s| NodeLogger::passes(s, metadata))
+        self.current()
+            .is_some_and(|log| NodeLogger::passes(&log.0, metadata))
     }
 
     fn log(&self, record: &log::Record<'_>) {
@@ -108,9 +132,8 @@ impl log::Log for NodeLogger {
             return;
         }
         IN_LOGGER.with(|c| c.set(true));
-        let state = self.state.read().unwrap_or_else(PoisonError::into_inner);
-        if let Some(state) = state.as_ref()
-            && NodeLogger::passes(state, record.metadata())
+        if let Some(NodeLog(state)) = self.current()
+            && NodeLogger::passes(&state, record.metadata())
         {
             let level = rank(record.level());
             let now = SystemTime::now()
@@ -118,7 +141,6 @@ impl log::Log for NodeLogger {
                 .unwrap_or_default();
             let message = record.args().to_string();
             if state.config.stderr {
-                // A closed stderr must not stop the node.
                 let _ = writeln!(
                     std::io::stderr().lock(),
                     "[{}] [{}.{:09}] [{}]: {}",
@@ -131,7 +153,11 @@ impl log::Log for NodeLogger {
             }
             if state.config.rosout
                 && !is_library(record.target())
-                && let Some(rosout) = &state.rosout
+                && let Some(rosout) = state
+                    .rosout
+                    .read()
+                    .unwrap_or_else(PoisonError::into_inner)
+                    .as_ref()
             {
                 rosout.rosout_raw(
                     Time::now(),
@@ -152,42 +178,59 @@ impl log::Log for NodeLogger {
     }
 }
 
-/// Installs the process logger (once; later calls replace its configuration).
-pub fn init(config: LogConfig) {
-    let max_level = match config.level {
+fn level_filter(level: LogLevel) -> log::LevelFilter {
+    match level {
         LogLevel::Debug => log::LevelFilter::Trace,
         LogLevel::Info => log::LevelFilter::Info,
         LogLevel::Warn | LogLevel::Error | LogLevel::Fatal => log::LevelFilter::Warn,
-    };
-    *LOGGER.state.write().unwrap_or_else(PoisonError::into_inner) = Some(State {
-        config,
-        rosout: None,
-    });
-    // Fails only when this logger is already installed, which is what we want.
-    let _ = log::set_logger(&LOGGER);
-    log::set_max_level(max_level);
-}
-
-/// From now on, also publish records on `/rosout` through `handle`.
-pub fn attach_rosout(handle: NodeLoggingHandle) {
-    if let Some(state) = LOGGER
-        .state
-        .write()
-        .unwrap_or_else(PoisonError::into_inner)
-        .as_mut()
-    {
-        state.rosout = Some(handle);
     }
 }
 
-/// Stops publishing on `/rosout` (before the node goes away).
-pub fn detach_rosout() {
-    if let Some(state) = LOGGER
-        .state
-        .write()
-        .unwrap_or_else(PoisonError::into_inner)
-        .as_mut()
+/// Registers a node's logging (installing the process logger on first use) and makes
+/// it the calling thread's.
+pub fn register(config: LogConfig) -> NodeLog {
+    let filter = level_filter(config.level);
+    let log = NodeLog(Arc::new(State {
+        config,
+        rosout: RwLock::new(None),
+    }));
     {
-        state.rosout = None;
+        let mut first = LOGGER.first.write().unwrap_or_else(PoisonError::into_inner);
+        if first.is_none() {
+            *first = Some(log.clone());
+        }
+    }
+    // Fails only when this logger is already installed, which is what we want.
+    let _ = log::set_logger(&LOGGER);
+    // The most verbose node of the process decides what the facade lets through.
+    if filter > log::max_level() {
+        log::set_max_level(filter);
+    }
+    log.enter();
+    log
+}
+
+impl NodeLog {
+    /// Makes this node's logging the calling thread's (for the threads a node starts).
+    pub fn enter(&self) {
+        CURRENT.with(|current| *current.borrow_mut() = Some(self.clone()));
+    }
+
+    /// From now on, also publish this node's records on `/rosout` through `handle`.
+    pub fn attach_rosout(&self, handle: NodeLoggingHandle) {
+        *self
+            .0
+            .rosout
+            .write()
+            .unwrap_or_else(PoisonError::into_inner) = Some(handle);
+    }
+
+    /// Stops publishing on `/rosout` (before the node goes away).
+    pub fn detach_rosout(&self) {
+        *self
+            .0
+            .rosout
+            .write()
+            .unwrap_or_else(PoisonError::into_inner) = None;
     }
 }

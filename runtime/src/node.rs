@@ -18,7 +18,7 @@ use stereocal_msgs::RosMessage;
 use super::args::RosArgs;
 use super::clock::NodeClock;
 use super::error::{Result, RuntimeError};
-use super::logging::{self, LogConfig};
+use super::logging::{self, LogConfig, NodeLog};
 use super::names::NodeIdentity;
 use super::param_services::ParameterServices;
 use super::param_store::ParameterStore;
@@ -183,7 +183,7 @@ impl NodeBuilder {
             &self.default_namespace,
             &ros_args.remaps,
         )?;
-        logging::init(LogConfig {
+        let log = logging::register(LogConfig {
             logger_name: identity.logger_name(),
             level: ros_args.log_level_for(&identity.logger_name()),
             stderr: ros_args.stdout_logs,
@@ -234,6 +234,7 @@ impl NodeBuilder {
             &mut node,
             &identity.fully_qualified_name(),
             clock.clone(),
+            log.clone(),
             Arc::clone(&params),
         )?;
         let spinner = node.spinner().map_err(|e| middleware("node spinner", e))?;
@@ -245,7 +246,7 @@ impl NodeBuilder {
                 }
             })
             .map_err(|e| middleware("spinner thread", e))?;
-        logging::attach_rosout(node.logging_handle());
+        log.attach_rosout(node.logging_handle());
         log::info!(
             "started {} on ROS domain {domain_id} ({transport}){}",
             identity.fully_qualified_name(),
@@ -262,6 +263,7 @@ impl NodeBuilder {
             specs: self.specs,
             params,
             clock,
+            log,
             parameter_services: Some(parameter_services),
             node: Some(node),
             _context: context,
@@ -279,6 +281,7 @@ pub struct RosNode {
     specs: Vec<ParamSpec>,
     params: Arc<ParameterStore>,
     clock: NodeClock,
+    log: NodeLog,
     parameter_services: Option<ParameterServices>,
     node: Option<Node>,
     _context: Context,
@@ -317,6 +320,11 @@ impl RosNode {
     /// The process's stop request (SIGINT/SIGTERM).
     pub fn shutdown(&self) -> Shutdown {
         self.shutdown.clone()
+    }
+
+    /// The node's logging, for the threads it starts ([`NodeLog::enter`]).
+    pub fn log(&self) -> NodeLog {
+        self.log.clone()
     }
 
     /// The node's clock: the system clock, or `/clock` with `use_sim_time`.
@@ -494,7 +502,7 @@ impl RosNode {
 
 impl Drop for RosNode {
     fn drop(&mut self) {
-        logging::detach_rosout();
+        self.log.detach_rosout();
         self.parameter_services = None;
         // Dropping the node tells its spinner to stop.
         self.node = None;

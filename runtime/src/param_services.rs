@@ -29,6 +29,7 @@ use stereocal_msgs::rcl_interfaces::{
 
 use crate::clock::NodeClock;
 use crate::error::{Result, RuntimeError};
+use crate::logging::NodeLog;
 use crate::param_store::ParameterStore;
 use crate::params::{ParamRange, ParamSpec};
 use crate::service::{ServiceServer, Srv, create_server};
@@ -346,12 +347,13 @@ pub struct ParameterServices {
 impl ParameterServices {
     /// Serves `store` as the parameters of `node` (whose fully qualified name is
     /// `node_name`), and publishes the declared parameters on `/parameter_events`,
-    /// stamping events on `clock`.
+    /// stamping events on `clock` and logging as `log`.
     pub fn start(
         context: &Context,
         node: &mut Node,
         node_name: &str,
         clock: NodeClock,
+        log: NodeLog,
         store: Arc<ParameterStore>,
     ) -> Result<Self> {
         let service = |name: &str| format!("{}/{name}", node_name.trim_end_matches('/'));
@@ -377,7 +379,10 @@ impl ParameterServices {
         let (stop, stopped) = oneshot::channel();
         let thread = std::thread::Builder::new()
             .name("ros-parameters".into())
-            .spawn(move || futures::executor::block_on(endpoints.serve(stopped)))
+            .spawn(move || {
+                log.enter();
+                futures::executor::block_on(endpoints.serve(stopped));
+            })
             .map_err(|e| RuntimeError::Middleware(format!("parameter services thread: {e}")))?;
         Ok(ParameterServices {
             stop: Some(stop),

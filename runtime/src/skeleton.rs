@@ -249,9 +249,11 @@ where
     let thread = {
         let queue = Arc::clone(&queue);
         let stats = Arc::clone(&stats);
+        let log = node.log();
         std::thread::Builder::new()
             .name(W::NAME.into())
             .spawn(move || {
+                log.enter();
                 worker.start(&stats);
                 loop {
                     match queue.pop_timeout(W::POLL) {

@@ -1,0 +1,151 @@
+//! `stereocal node compose`: the stereo rectify pair of
+//! config/stereo_rectify_composition.yaml runs in one process, each node under its own
+//! name and namespace, rectifying its side of the bundled stereo bag exactly as the
+//! rectify stage does, logging under its own logger name, and both stop on one
+//! SIGTERM. A composition naming an unknown node is refused at start-up.
+
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use stereocal::cli::demo::BUNDLED_STEREO;
+use stereocal::rectify::stage::{Rectified, Rectifier};
+use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
+use stereocal_rosbag::{BagReader, TopicFilter};
+use stereocal_runtime::qos;
+use stereocal_runtime::testing::{DomainLease, NodeProcess, PeerNode};
+use stereocal_runtime::transport::TransportConfig;
+use stereocal_vision::rectify::RemapOptions;
+
+const SIDES: [&str; 2] = ["left", "right"];
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The first image and camera_info of `side` in the bundled stereo bag.
+fn first_frame(side: &str) -> (Image, CameraInfo) {
+    let bag = BagReader::open(root().join(BUNDLED_STEREO).join("bag")).expect("bundled bag");
+    let topics = [
+        format!("/stereo/{side}/image_raw"),
+        format!("/stereo/{side}/camera_info"),
+    ];
+    let (mut image, mut info) = (None, None);
+    for message in bag.messages(&TopicFilter::only(topics.clone())) {
+        let message = message.expect("bag message");
+        if *message.topic == topics[0] {
+            image.get_or_insert_with(|| message.decode::<Image>().expect("image"));
+        } else {
+            info.get_or_insert_with(|| message.decode::<CameraInfo>().expect("camera_info"));
+        }
+    }
+    (image.expect("an image"), info.expect("a camera_info"))
+}
+
+#[test]
+fn the_composed_stereo_pair_rectifies_both_sides_in_one_process() {
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let mut command = Command::new(env!("CARGO_BIN_EXE_stereocal"));
+    command
+        .args(["node", "compose"])
+        .arg(root().join("config/stereo_rectify_composition.yaml"))
+        .args(["--ros-args", "--params-file"])
+        .arg(root().join("config/stereo_rectify.yaml"));
+    let process = NodeProcess::spawn(command, domain.id()).expect("composition starts");
+    let mut peer = PeerNode::new(
+        &TransportConfig::rustdds_defaults(),
+        domain.id(),
+        "/test",
+        "composition",
+    )
+    .expect("test node");
+    let mut sides = Vec::new();
+    for side in SIDES {
+        let (image, info) = first_frame(side);
+        let expected = match Rectifier::new(RemapOptions::default()).rectify(&image, &info) {
+            Ok(Rectified::Image(rect)) => rect,
+            other => panic!("the stage did not rectify {side}: {other:?}"),
+        };
+        let images = peer
+            .publisher::<Image>(&format!("/stereo/{side}/image_raw"), qos::reliable(5))
+            .expect("image publisher");
+        let infos = peer
+            .publisher::<CameraInfo>(&format!("/stereo/{side}/camera_info"), qos::reliable(5))
+            .expect("camera_info publisher");
+        let rectified = peer
+            .subscription::<Image>(&format!("/stereo/{side}/image_rect"), qos::reliable(5))
+            .expect("image_rect subscription");
+        sides.push((image, info, expected, images, infos, rectified));
+    }
+
+    // The node's image subscription is best-effort: send again until each side's frame
+    // has made the round trip.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    for (side, (image, info, expected, images, infos, rectified)) in SIDES.iter().zip(&sides) {
+        let got = loop {
+            assert!(
+                Instant::now() < deadline,
+                "no {side} image_rect in 60 s:\n{}",
+                process.logs()
+            );
+            infos.publish(info.clone()).expect("publish camera_info");
+            images.publish(image.clone()).expect("publish image");
+            let resend = Instant::now() + Duration::from_millis(500);
+            let mut got = None;
+            while got.is_none() && Instant::now() < resend {
+                match rectified.take() {
+                    Ok(Some((rect, _))) => got = Some(rect),
+                    _ => std::thread::sleep(Duration::from_millis(10)),
+                }
+            }
+            if let Some(rect) = got {
+                break rect;
+            }
+        };
+        assert_eq!(got.header, expected.header, "{side}");
+        assert!(
+            got.data == expected.data,
+            "{side} pixels differ from the stage's"
+        );
+    }
+
+    let exit = process.terminate();
+    assert!(
+        exit.clean(),
+        "the composition failed on SIGTERM:\n{}",
+        exit.logs
+    );
+    for side in SIDES {
+        let logger = format!("[stereo.{side}.rectify_node]: ");
+        assert!(
+            exit.logs
+                .lines()
+                .any(|l| l.contains(&logger) && l.contains("shutting down: ")),
+            "{side} node's shutdown not logged under its own name:\n{}",
+            exit.logs
+        );
+    }
+}
+
+#[test]
+fn a_composition_naming_an_unknown_node_is_refused_at_start_up() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let file = dir.path().join("composition.yaml");
+    std::fs::write(&file, "nodes:\n  - node: rectify\n  - node: disparity\n").expect("write");
+    let output = Command::new(env!("CARGO_BIN_EXE_stereocal"))
+        .args(["node", "compose"])
+        .arg(&file)
+        .stdin(Stdio::null())
+        .output()
+        .expect("run stereocal node compose");
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success());
+    assert!(
+        stderr.contains("node 2 is \"disparity\": expected one of rectify, calibrate"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("started"),
+        "a node was started before the composition was checked:\n{stderr}"
+    );
+}
