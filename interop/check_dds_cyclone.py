@@ -20,43 +20,19 @@ import subprocess
 import time
 from pathlib import Path
 
-import cv2
 import numpy as np
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
+from rectify_scene import D, HEIGHT, K, P, R, WIDTH, opencv_rectified, pixels
 from ros2_cyclone import (
     CameraInfo, Header, Image, RegionOfInterest, Time, fail, reliable_qos, stop_node,
 )
 
 ROOT = Path(__file__).resolve().parent.parent
-WIDTH, HEIGHT = 320, 240
 FRAMES = 10
 TIMEOUT_S = 20.0
-
-
-K = [260.0, 0.0, 161.5, 0.0, 262.0, 118.5, 0.0, 0.0, 1.0]
-D = [-0.25, 0.08, 0.001, -0.0005, 0.0]
-ANGLE = 0.03
-R = [np.cos(ANGLE), 0.0, np.sin(ANGLE), 0.0, 1.0, 0.0, -np.sin(ANGLE), 0.0, np.cos(ANGLE)]
-P = [240.0, 0.0, 158.0, 0.0, 0.0, 240.0, 121.0, 0.0, 0.0, 0.0, 1.0, 0.0]
-
-
-def pixels(index, channels):
-    y, x = np.mgrid[0:HEIGHT, 0:WIDTH]
-    checker = ((x // 20 + y // 20) % 2) * 160
-    planes = [checker + (x * 3 + y * 5 + c * 40 + index * 11) % 90 for c in range(channels)]
-    return np.stack(planes, axis=-1).astype(np.uint8).reshape(HEIGHT, WIDTH, channels)
-
-
-def opencv_rectified(raw):
-    k = np.array(K).reshape(3, 3)
-    r = np.array(R).reshape(3, 3)
-    p = np.array(P).reshape(3, 4)
-    map1, map2 = cv2.initUndistortRectifyMap(k, np.array(D), r, p, (WIDTH, HEIGHT), cv2.CV_16SC2)
-    out = cv2.remap(raw, map1, map2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-    return out.reshape(HEIGHT, WIDTH, -1)
 
 
 def camera_info(header):

@@ -19,17 +19,27 @@ import sys
 import tempfile
 from pathlib import Path
 
+import yaml
 from launch_harness import evaluate
 from ros2_rclpy import Checks, DomainLease, NodeProcess, Parameters, Peer, require
 
 ROOT = Path(__file__).resolve().parent.parent
 
-RECTIFY_PARAMS = {"interpolation": 1, "queue_size": 5}
+#: What the rectify cases' params file sets: not the nodes' defaults (1 and 5), so the
+#: values prove the file reached the nodes.
+RECTIFY_PARAMS = {"interpolation": 2, "queue_size": 3}
 #: Launch arguments that only say where an executable is (left out of the check names).
-EXECUTABLES = {"rectify_node", "calibrate_node", "stereocal"}
+EXECUTABLES = {"rectify_node", "calibrate_node", "stereocal", "params_file"}
 
 
-def cases(rectify_node, calibrate_node, stereocal):
+def rectify_params_file(workdir):
+    """A params file for every rectify_node with RECTIFY_PARAMS."""
+    path = Path(workdir) / "rectify_params.yaml"
+    path.write_text(yaml.safe_dump({"/**/rectify_node": {"ros__parameters": RECTIFY_PARAMS}}))
+    return str(path)
+
+
+def cases(rectify_node, calibrate_node, stereocal, rectify_params):
     """(launch file, launch arguments, processes started, {node: (subscribed,
     published, called services, parameter values)}) for every launch file, as its
     documentation describes it."""
@@ -74,13 +84,15 @@ def cases(rectify_node, calibrate_node, stereocal):
         for side in ("left", "right")
     }
     return [
-        ("stereo_rectify.launch.py", {"rectify_node": rectify_node, "camera": "/my_stereo"},
+        ("stereo_rectify.launch.py", {"rectify_node": rectify_node, "camera": "/my_stereo",
+                                      "params_file": rectify_params},
          ["/left/rectify_node", "/right/rectify_node"], stereo_rectify),
         ("calibrate.launch.py", {"calibrate_node": calibrate_node, "stereo": "true", "camera": "/stereo",
                                  "size": "8x6", "square": "0.03", "slop": "0.01"},
          ["/stereo/calibrate_node"], calibrate_stereo),
         ("calibrate.launch.py", {"calibrate_node": calibrate_node}, ["/camera/calibrate_node"], calibrate_mono),
-        ("stereo_rectify_composed.launch.py", {"stereocal": stereocal}, ["stereocal (composition)"], composed),
+        ("stereo_rectify_composed.launch.py", {"stereocal": stereocal, "params_file": rectify_params},
+         ["stereocal (composition)"], composed),
     ]
 
 
@@ -109,8 +121,18 @@ def check_case(checks, launch_file, arguments, processes, expected, workdir):
         return
     lease = DomainLease()
     peer = Peer(lease.id, name="launch_check")
-    processes = [NodeProcess(n.command(workdir), lease.id) for n in evaluation.nodes]
-    for process in processes:
+    # What the launch file sets in the environment, its processes get.
+    saved = {name: os.environ.get(name) for name in evaluation.environment}
+    os.environ.update(evaluation.environment)
+    try:
+        node_processes = [NodeProcess(n.command(workdir), lease.id) for n in evaluation.nodes]
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+    for process in node_processes:
         peer.watch(process)
     try:
         with checks.check(label, "graph: nodes, topics, services called") as note:
@@ -134,17 +156,19 @@ def check_case(checks, launch_file, arguments, processes, expected, workdir):
         with checks.check(label, "parameters: params file and launch arguments") as note:
             for name, (_, _, _, values) in expected.items():
                 got = Parameters(peer, name).get(list(values))
-                require(got == list(values.values()), f"{name}: {dict(zip(values, got))}, expected {values}")
+                typed = [(type(v), v) for v in got]
+                require(typed == [(type(v), v) for v in values.values()],
+                        f"{name}: {dict(zip(values, got))}, expected {values}")
             note("; ".join(f"{name}: {values}" for name, (_, _, _, values) in expected.items()))
         with checks.check(label, "clean shutdown (SIGTERM)"):
             peer.watched.clear()
-            codes = [p.stop() for p in processes]
+            codes = [p.stop() for p in node_processes]
             require(all(code == 0 for code in codes), lambda: f"exit codes {codes}:\n"
-                    + "\n".join(p.logs()[-2000:] for p in processes))
+                    + "\n".join(p.logs()[-2000:] for p in node_processes))
             peer.wait_until(lambda: not ({split(n) for n in expected} & peer.node_names()),
                             "the nodes to leave the graph")
     finally:
-        for process in processes:
+        for process in node_processes:
             process.stop()
         peer.close()
         lease.release()
@@ -165,7 +189,7 @@ def main():
         # calibrate_node keeps its samples under $ROS_HOME: a folder of this check's own.
         os.environ["ROS_HOME"] = workdir
         for launch_file, arguments, processes, expected in cases(
-                args.rectify_node, args.calibrate_node, args.stereocal):
+                args.rectify_node, args.calibrate_node, args.stereocal, rectify_params_file(workdir)):
             check_case(checks, launch_file, arguments, processes, expected, workdir)
     return checks.table()
 

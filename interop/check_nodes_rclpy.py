@@ -59,6 +59,7 @@ import numpy as np
 import yaml
 from bag_images import messages as bag_messages
 # ros2_rclpy first: it chooses the middleware before rclpy loads one.
+from rectify_scene import D, HEIGHT, K, P, R, WIDTH, opencv_rectified, pixels
 from ros2_rclpy import (
     DomainLease, NodeProcess, Parameters, Peer, main_guard, python_value, require,
     stop_and_check,
@@ -204,7 +205,8 @@ def common_parameter_checks(checks, label, params, documented, read_only, constr
     for name in refuse:
         with checks.check(label, f"parameters: set of read-only {name} refused"):
             before = documented[name]
-            value = before + 1 if isinstance(before, int) else "x"
+            # A value the parameter would otherwise accept: only read-only can refuse it.
+            value = OTHER_ALLOWED_VALUE.get(name, before + 1 if isinstance(before, int) else "x")
             [result] = params.set({name: value})
             require(not result.successful and result.reason.strip(),
                     f"set {name}={value!r}: successful={result.successful}, "
@@ -223,32 +225,13 @@ def describe_all_check(checks, label, params):
                 f"descriptors of {[d.name for d in descriptors]} for {names}")
 
 
+#: Allowed values, other than the default, of string parameters with a fixed set: a set
+#: of one of them can only be refused for being read-only.
+OTHER_ALLOWED_VALUE = {"pattern": "charuco", "model": "rational_polynomial"}
+
+
 # ---------------------------------------------------------------------------------------
 # rectify_node
-
-WIDTH, HEIGHT = 320, 240
-K = [260.0, 0.0, 161.5, 0.0, 262.0, 118.5, 0.0, 0.0, 1.0]
-D = [-0.25, 0.08, 0.001, -0.0005, 0.0]
-ANGLE = 0.03
-R = [np.cos(ANGLE), 0.0, np.sin(ANGLE), 0.0, 1.0, 0.0, -np.sin(ANGLE), 0.0, np.cos(ANGLE)]
-P = [240.0, 0.0, 158.0, 0.0, 0.0, 240.0, 121.0, 0.0, 0.0, 0.0, 1.0, 0.0]
-
-
-def pixels(index, channels):
-    """A checkerboard with gradients: nearest and bilinear rectification differ on it."""
-    y, x = np.mgrid[0:HEIGHT, 0:WIDTH]
-    checker = ((x // 20 + y // 20) % 2) * 160
-    planes = [checker + (x * 3 + y * 5 + c * 40 + index * 11) % 90 for c in range(channels)]
-    return np.stack(planes, axis=-1).astype(np.uint8)
-
-
-def opencv_rectified(raw, interpolation):
-    maps = cv2.initUndistortRectifyMap(
-        np.reshape(K, (3, 3)), np.array(D), np.reshape(R, (3, 3)), np.reshape(P, (3, 4)),
-        (WIDTH, HEIGHT), cv2.CV_16SC2)
-    out = cv2.remap(raw, *maps, interpolation, borderMode=cv2.BORDER_CONSTANT, borderValue=0)
-    return out.reshape(HEIGHT, WIDTH, -1)
-
 
 def camera_info_msg(stamp, k=K):
     return CameraInfo(header=header(stamp, "cam_optical"), height=HEIGHT, width=WIDTH,
@@ -390,8 +373,11 @@ def check_rectify(checks, peer, rosout, binary):
             require(now == [0], f"interpolation is {now} after a refused set, not [0]")
 
         with checks.check(label, "parameters: atomic set with a bad value changes nothing"):
-            result = r.params.set_atomically({"interpolation": 2, "queue_size": -1})
-            require(not result.successful and result.reason.strip(),
+            result = r.params.set_atomically([("interpolation", 2), ("interpolation", 9)])
+            require(not result.successful and "out of range" in result.reason,
+                    f"successful={result.successful}, reason {result.reason!r}")
+            result = r.params.set_atomically({"interpolation": 2, "queue_size": 6})
+            require(not result.successful and "read-only" in result.reason,
                     f"successful={result.successful}, reason {result.reason!r}")
             now = r.params.get(["interpolation", "queue_size"])
             require(now == [0, 5], f"interpolation, queue_size are {now}, not [0, 5]")

@@ -322,7 +322,8 @@ class Parameters:
         return list(self._call("set_parameters", parameters=messages(values)).results)
 
     def set_atomically(self, values):
-        """SetParametersAtomically with {name: Python value}: one SetParametersResult."""
+        """SetParametersAtomically with {name: Python value} or [(name, value), ...]
+        (a name may then come twice): one SetParametersResult."""
         return self._call("set_parameters_atomically", parameters=messages(values)).result
 
     def describe(self, names):
@@ -331,8 +332,9 @@ class Parameters:
 
 
 def messages(values):
-    """rcl_interfaces/Parameter messages of {name: Python value}."""
-    return [Parameter(name, value=value).to_parameter_msg() for name, value in values.items()]
+    """rcl_interfaces/Parameter messages of {name: Python value} or [(name, value), ...]."""
+    pairs = values.items() if isinstance(values, dict) else values
+    return [Parameter(name, value=value).to_parameter_msg() for name, value in pairs]
 
 
 #: A rcl_interfaces/ParameterValue as a Python value (None when not set).

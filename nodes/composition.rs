@@ -2,7 +2,7 @@
 //! `stereocal node compose FILE [--ros-args ...]` starts every node that the
 //! composition file lists, each on threads of its own with its own name, parameters,
 //! logging and DDS participant, and stops them all on SIGINT/SIGTERM, or as soon as one
-//! of them fails.
+//! of them fails (the error then names every node that failed).
 //!
 //! The composition file is YAML:
 //!
@@ -23,6 +23,8 @@ use std::time::Duration;
 
 use anyhow::{Context, anyhow, bail};
 use serde::Deserialize;
+use stereocal_runtime::args::RosArgs;
+use stereocal_runtime::logging::{self, LogConfig};
 use stereocal_runtime::shutdown::Shutdown;
 
 /// How a node of the composition is run: its `run` with its command line.
@@ -33,6 +35,9 @@ const NODES: [(&str, NodeMain); 2] = [
     ("rectify", |args| crate::rectify::node::run(args)),
     ("calibrate", |args| crate::calibrate::node::run(args)),
 ];
+
+/// The logger name of the composition itself.
+const LOGGER_NAME: &str = "stereocal_compose";
 
 /// How often a running composition looks whether one of its nodes has stopped.
 const WATCH_PERIOD: Duration = Duration::from_millis(50);
@@ -116,10 +121,18 @@ fn command_line(common: &[String], entry: &ComposedNode) -> anyhow::Result<Vec<S
 /// stops the others; its error is returned, naming the node.
 pub fn run(path: &Path, common: &[String]) -> anyhow::Result<()> {
     let composition = Composition::read(path)?;
-    let shutdown = Shutdown::install()?;
-    let mut running: Vec<(String, JoinHandle<anyhow::Result<()>>)> = Vec::new();
+    // The composition logs as a node of its own, and so do the DDS libraries' threads,
+    // which belong to no node.
+    let (ros_args, _) = RosArgs::parse(common.iter().cloned())?;
+    logging::register(LogConfig {
+        logger_name: LOGGER_NAME.to_owned(),
+        level: ros_args.log_level_for(LOGGER_NAME),
+        stderr: ros_args.stdout_logs,
+        rosout: false,
+        external_lib_logs: ros_args.external_lib_logs,
+    });
+    let mut commands = Vec::new();
     for (index, entry) in composition.nodes.iter().enumerate() {
-        let args = command_line(common, entry)?;
         let main =
             node_main(&entry.node).ok_or_else(|| anyhow!("unknown node {:?}", entry.node))?;
         let label = format!(
@@ -128,28 +141,58 @@ pub fn run(path: &Path, common: &[String]) -> anyhow::Result<()> {
             entry.node,
             entry.args.join(" ")
         );
-        let thread = std::thread::Builder::new()
-            .name(format!("{}-{}", entry.node, index + 1))
-            .spawn(move || main(args))
-            .with_context(|| format!("starting {label}"))?;
-        running.push((label, thread));
+        commands.push((
+            label,
+            entry.node.clone(),
+            main,
+            command_line(common, entry)?,
+        ));
     }
-    while !shutdown.requested() && !running.iter().any(|(_, thread)| thread.is_finished()) {
+    let shutdown = Shutdown::install()?;
+    log::info!("running {} node(s) of {}", commands.len(), path.display());
+    let mut running: Vec<(String, JoinHandle<anyhow::Result<()>>)> = Vec::new();
+    let mut failed = Vec::new();
+    for (index, (label, node, main, args)) in commands.into_iter().enumerate() {
+        match std::thread::Builder::new()
+            .name(format!("{node}-{}", index + 1))
+            .spawn(move || main(args))
+        {
+            Ok(thread) => running.push((label, thread)),
+            Err(e) => {
+                failed.push(anyhow!("{label}: not started: {e}"));
+                break;
+            }
+        }
+    }
+    while failed.is_empty()
+        && !shutdown.requested()
+        && !running.iter().any(|(_, thread)| thread.is_finished())
+    {
         std::thread::sleep(WATCH_PERIOD);
     }
     shutdown.request();
-    let mut first_error = None;
     for (label, thread) in running {
         let outcome = thread
             .join()
             .map_err(|_| anyhow!("panicked"))
             .and_then(|result| result);
         if let Err(e) = outcome {
-            log::error!("{label} stopped: {e:#}");
-            first_error.get_or_insert(e.context(label));
+            failed.push(e.context(label));
         }
     }
-    first_error.map_or(Ok(()), Err)
+    match failed.len() {
+        0 => Ok(()),
+        1 => Err(failed.remove(0)),
+        _ => Err(anyhow!(
+            "{} nodes failed:\n{}",
+            failed.len(),
+            failed
+                .iter()
+                .map(|e| format!("{e:#}"))
+                .collect::<Vec<_>>()
+                .join("\n")
+        )),
+    }
 }
 
 #[cfg(test)]

@@ -1,8 +1,8 @@
 //! `stereocal node compose`: the stereo rectify pair of
 //! config/stereo_rectify_composition.yaml runs in one process, each node under its own
-//! name and namespace, rectifying its side of the bundled stereo bag exactly as the
-//! rectify stage does, logging under its own logger name, and both stop on one
-//! SIGTERM. A composition naming an unknown node is refused at start-up.
+//! name and namespace and the parameters of the params file given on the command line,
+//! rectifying its side of the bundled stereo bag exactly as the rectify stage does,
+//! logging under its own logger name, and both stop on one SIGTERM. A composition naming an unknown node is refused at start-up.
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -15,7 +15,7 @@ use stereocal_rosbag::{BagReader, TopicFilter};
 use stereocal_runtime::qos;
 use stereocal_runtime::testing::{DomainLease, NodeProcess, PeerNode};
 use stereocal_runtime::transport::TransportConfig;
-use stereocal_vision::rectify::RemapOptions;
+use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
 const SIDES: [&str; 2] = ["left", "right"];
 
@@ -45,12 +45,19 @@ fn first_frame(side: &str) -> (Image, CameraInfo) {
 #[test]
 fn the_composed_stereo_pair_rectifies_both_sides_in_one_process() {
     let domain = DomainLease::for_test().expect("a ROS domain");
+    // Nearest, not the default bilinear: the pixels show the params file reached both.
+    let params = tempfile::NamedTempFile::new().expect("temp file");
+    std::fs::write(
+        params.path(),
+        "/**/rectify_node:\n  ros__parameters:\n    interpolation: 0\n",
+    )
+    .expect("write params file");
     let mut command = Command::new(env!("CARGO_BIN_EXE_stereocal"));
     command
         .args(["node", "compose"])
         .arg(root().join("config/stereo_rectify_composition.yaml"))
         .args(["--ros-args", "--params-file"])
-        .arg(root().join("config/stereo_rectify.yaml"));
+        .arg(params.path());
     let process = NodeProcess::spawn(command, domain.id()).expect("composition starts");
     let mut peer = PeerNode::new(
         &TransportConfig::rustdds_defaults(),
@@ -62,7 +69,11 @@ fn the_composed_stereo_pair_rectifies_both_sides_in_one_process() {
     let mut sides = Vec::new();
     for side in SIDES {
         let (image, info) = first_frame(side);
-        let expected = match Rectifier::new(RemapOptions::default()).rectify(&image, &info) {
+        let nearest = RemapOptions {
+            interpolation: Interpolation::Nearest,
+            ..RemapOptions::default()
+        };
+        let expected = match Rectifier::new(nearest).rectify(&image, &info) {
             Ok(Rectified::Image(rect)) => rect,
             other => panic!("the stage did not rectify {side}: {other:?}"),
         };

@@ -3,7 +3,8 @@
 //! `--clock` every message is preceded by `/clock` (rosgraph_msgs/Clock) at its
 //! recorded time, so nodes with `use_sim_time` follow the recording's time whatever the
 //! rate; `--loop` starts again at the end (time then goes back, which such nodes
-//! notice). Messages of any type are published as recorded, byte for byte.
+//! notice). Messages of any type are published as recorded, byte for byte, with the
+//! reliability and durability they were recorded with.
 
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -12,16 +13,25 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, bail};
 use clap::Args;
 use ros2_client::Publisher;
+use ros2_client::qos::{History, QosProfile};
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::rosgraph_msgs::Clock;
-use stereocal_rosbag::{BagReader, TopicFilter};
+use stereocal_rosbag::{BagReader, Durability, OfferedQos, Reliability, TopicFilter};
 use stereocal_runtime::node::{NodeBuilder, RosNode};
 use stereocal_runtime::qos;
 use stereocal_runtime::raw::RawCdr;
 use stereocal_runtime::shutdown::Shutdown;
 
-/// Messages a publisher keeps for late or slow reliable readers.
+/// Messages a publisher keeps for late or slow reliable readers, unless the recording
+/// offered more.
 const PUBLISH_DEPTH: usize = 10;
+
+/// Longest sleep between two looks at the stop request while waiting for a message's
+/// time.
+const STOP_CHECK: Duration = Duration::from_millis(50);
+
+/// Longest playback span and subscriber wait accepted: a century.
+const MAX_SECONDS: f64 = 3.2e9;
 
 /// Arguments of `stereocal play`.
 #[derive(Args, Debug)]
@@ -58,9 +68,21 @@ struct Played {
 
 /// Plays the bag of `args` until it ends (or, with `--loop`, until SIGINT/SIGTERM).
 pub fn run(args: &PlayArgs) -> anyhow::Result<()> {
-    if !(args.rate.is_finite() && args.rate > 0.0) {
-        bail!("--rate {} must be a positive number", args.rate);
+    if !(args.rate.is_finite() && args.rate >= 1e-6) {
+        bail!("--rate {} must be a number of at least 1e-6", args.rate);
     }
+    let subscriber_wait = args
+        .wait_for_subscribers
+        .map(|seconds| {
+            if (0.0..=MAX_SECONDS).contains(&seconds) {
+                Ok(Duration::from_secs_f64(seconds))
+            } else {
+                Err(anyhow::anyhow!(
+                    "--wait-for-subscribers {seconds} must be from 0 to {MAX_SECONDS} seconds"
+                ))
+            }
+        })
+        .transpose()?;
     let bag = BagReader::open(&args.bag).with_context(|| format!("bag {}", args.bag.display()))?;
     for topic in &args.topics {
         if bag.topic(topic).is_none() {
@@ -75,9 +97,12 @@ pub fn run(args: &PlayArgs) -> anyhow::Result<()> {
     let mut node = NodeBuilder::new("stereocal_player").start(args.ros_args.clone())?;
     let mut played = BTreeMap::new();
     for topic in bag.topics().iter().filter(|t| filter.accepts(&t.name)) {
-        let publisher =
-            node.advertise_raw(&topic.name, &topic.type_name, qos::reliable(PUBLISH_DEPTH))?;
+        let offered = OfferedQos::from_rosbag2_yaml(&topic.offered_qos_profiles);
+        let publisher = node.advertise_raw(&topic.name, &topic.type_name, replay_qos(&offered))?;
         played.insert(topic.name.clone(), Played { publisher, sent: 0 });
+    }
+    if bag.topics_message_count(played.keys().map(String::as_str)) == 0 {
+        bail!("{} has no message to play", args.bag.display());
     }
     let clock = if args.clock {
         Some(node.advertise::<Clock>("/clock", qos::reliable(PUBLISH_DEPTH))?)
@@ -85,8 +110,7 @@ pub fn run(args: &PlayArgs) -> anyhow::Result<()> {
         None
     };
     let shutdown = node.shutdown();
-    if let Some(seconds) = args.wait_for_subscribers {
-        let limit = Duration::from_secs_f64(seconds.max(0.0));
+    if let Some(limit) = subscriber_wait {
         wait_for_subscribers(&node, &played, clock.as_ref(), limit);
     }
     let started = Instant::now();
@@ -109,6 +133,32 @@ pub fn run(args: &PlayArgs) -> anyhow::Result<()> {
         eprintln!("  {topic}: {}", p.sent);
     }
     Ok(())
+}
+
+/// The QoS a topic is published with: the recorded publishers' reliability and
+/// durability when they all agree (transient local keeps latched topics such as
+/// `/tf_static` reaching late subscribers), else reliable and volatile, keeping at
+/// least [`PUBLISH_DEPTH`] messages.
+fn replay_qos(offered: &[OfferedQos]) -> QosProfile {
+    let all = |wanted: fn(&OfferedQos) -> bool| !offered.is_empty() && offered.iter().all(wanted);
+    let depth = offered
+        .iter()
+        .map(|q| q.depth as usize)
+        .max()
+        .unwrap_or(0)
+        .max(PUBLISH_DEPTH);
+    let profile = if all(|q| q.reliability == Reliability::BestEffort) {
+        QosProfile::publisher_default()
+            .reliability_best_effort()
+            .history(History::KeepLast { depth })
+    } else {
+        qos::reliable(depth)
+    };
+    if all(|q| q.durability == Durability::TransientLocal) {
+        profile.durability(ros2_client::qos::Durability::TransientLocal)
+    } else {
+        profile
+    }
 }
 
 /// Waits until every played topic (and `/clock`, when published) has a subscriber, at
@@ -151,9 +201,21 @@ fn play_once(
         let message = message.with_context(|| format!("bag {}", args.bag.display()))?;
         let first = *first_log_time.get_or_insert(message.log_time_ns);
         let offset = message.log_time_ns.saturating_sub(first) as f64 * 1e-9 / args.rate;
-        let due = started + Duration::from_secs_f64(offset);
-        if let Some(wait) = due.checked_duration_since(Instant::now()) {
-            std::thread::sleep(wait);
+        let Some(due) = Duration::try_from_secs_f64(offset.min(MAX_SECONDS))
+            .ok()
+            .and_then(|offset| started.checked_add(offset))
+        else {
+            bail!(
+                "{}: message at {} ns is too far from the first",
+                message.topic,
+                message.log_time_ns
+            );
+        };
+        while let Some(wait) = due.checked_duration_since(Instant::now()) {
+            if shutdown.requested() {
+                return Ok(());
+            }
+            std::thread::sleep(wait.min(STOP_CHECK));
         }
         let Some(topic) = played.get_mut(&*message.topic) else {
             continue;

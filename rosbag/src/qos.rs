@@ -1,5 +1,6 @@
 //! The QoS a recorded topic was offered with, in the form rosbag2 stores it
-//! (`offered_qos_profiles`), so `ros2 bag play` republishes with the same QoS.
+//! (`offered_qos_profiles`), so `ros2 bag play` (and `stereocal play`) republishes with
+//! the same QoS.
 
 /// Reliability of a publisher.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,9 +78,81 @@ impl OfferedQos {
     }
 }
 
+/// A reliability or durability as rosbag2 stores it: rmw's number (metadata up to
+/// version 8) or its name (later versions).
+fn policy(value: &serde_yaml::Value) -> Option<u64> {
+    match value {
+        serde_yaml::Value::Number(n) => n.as_u64(),
+        serde_yaml::Value::String(s) => match s.as_str() {
+            "reliable" | "transient_local" => Some(1),
+            "best_effort" | "volatile" => Some(2),
+            _ => None,
+        },
+        _ => None,
+    }
+}
+
+impl OfferedQos {
+    /// The profiles of an `offered_qos_profiles` text, numeric or named; a policy that
+    /// is missing or unknown (system default) keeps [`OfferedQos::default`]'s, and text
+    /// that is not a list of profiles gives none.
+    pub fn from_rosbag2_yaml(text: &str) -> Vec<OfferedQos> {
+        let Ok(serde_yaml::Value::Sequence(profiles)) = serde_yaml::from_str(text) else {
+            return Vec::new();
+        };
+        profiles
+            .iter()
+            .map(|profile| {
+                let default = OfferedQos::default();
+                OfferedQos {
+                    reliability: match policy(&profile["reliability"]) {
+                        Some(2) => Reliability::BestEffort,
+                        Some(1) => Reliability::Reliable,
+                        _ => default.reliability,
+                    },
+                    durability: match policy(&profile["durability"]) {
+                        Some(1) => Durability::TransientLocal,
+                        Some(2) => Durability::Volatile,
+                        _ => default.durability,
+                    },
+                    depth: profile["depth"]
+                        .as_u64()
+                        .and_then(|d| u32::try_from(d).ok())
+                        .filter(|d| *d > 0)
+                        .unwrap_or(default.depth),
+                }
+            })
+            .collect()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn offered_profiles_are_read_back_numeric_or_named() {
+        let latched = OfferedQos::latched();
+        assert_eq!(
+            OfferedQos::from_rosbag2_yaml(&latched.to_rosbag2_yaml()),
+            [latched]
+        );
+        let named = "- history: keep_last\n  depth: 5\n  reliability: best_effort\n  \
+                     durability: volatile\n- depth: 0\n  reliability: system_default\n";
+        assert_eq!(
+            OfferedQos::from_rosbag2_yaml(named),
+            [
+                OfferedQos {
+                    reliability: Reliability::BestEffort,
+                    durability: Durability::Volatile,
+                    depth: 5,
+                },
+                OfferedQos::default(),
+            ]
+        );
+        assert!(OfferedQos::from_rosbag2_yaml("").is_empty());
+        assert!(OfferedQos::from_rosbag2_yaml("not: [a list").is_empty());
+    }
 
     #[test]
     fn rosbag2_yaml_is_a_list_with_one_profile() {

@@ -2,20 +2,34 @@
 //! simulator or a bag replay (`ros2 bag play --clock`, `stereocal play --clock`)
 //! publishes on `/clock` (rosgraph_msgs/Clock), as rclcpp's TimeSource does.
 //!
-//! Simulated time reads zero until the first `/clock` message. When it goes backwards
-//! (a replay restarted or looped), [`SimClock::set`] says so, and the node resets what
-//! depends on time having moved on (its stamp pairing).
+//! Simulated time reads zero until the first `/clock` message. A node with
+//! `use_sim_time` receives `/clock` on a thread of its own ([`ClockListener`]) from the
+//! moment it starts. When time goes backwards (a replay restarted or looped) the
+//! listener warns and counts it ([`SimClock::backward_jumps`]), and the node resets
+//! what depends on time having moved on (its stamp pairing) before its next frame.
 
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
+use std::thread::JoinHandle;
 use std::time::{SystemTime, UNIX_EPOCH};
 
+use futures::FutureExt;
+use futures::channel::oneshot;
+use ros2_client::Node;
 use stereocal_msgs::builtin_interfaces::Time;
+use stereocal_msgs::rosgraph_msgs::Clock;
+
+use crate::error::{Result, RuntimeError};
+use crate::logging::NodeLog;
+use crate::node::create_topic;
+use crate::qos;
 
 /// The current simulated time, shared between the thread that receives `/clock` and
 /// every reader of the node's clock.
 #[derive(Debug, Default)]
 pub struct SimClock {
     now: Mutex<Time>,
+    backward_jumps: AtomicU64,
 }
 
 /// What a `/clock` message did to simulated time.
@@ -39,10 +53,16 @@ impl SimClock {
         let from = *now;
         *now = time;
         if time < from {
+            self.backward_jumps.fetch_add(1, Ordering::Relaxed);
             ClockUpdate::Backward { from, to: time }
         } else {
             ClockUpdate::Forward
         }
+    }
+
+    /// How many times simulated time has gone backwards so far.
+    pub fn backward_jumps(&self) -> u64 {
+        self.backward_jumps.load(Ordering::Relaxed)
     }
 
     fn now(&self) -> Time {
@@ -92,6 +112,75 @@ impl NodeClock {
     }
 }
 
+/// Receives `/clock` into a node's [`SimClock`] on a thread of its own, until dropped.
+pub(crate) struct ClockListener {
+    stop: Option<oneshot::Sender<()>>,
+    thread: Option<JoinHandle<()>>,
+}
+
+impl ClockListener {
+    /// Subscribes `/clock` on `node` (best-effort, the last message only, as rclcpp's
+    /// clock subscription) and sets `clock` from it, logging as `log`.
+    pub(crate) fn start(node: &mut Node, clock: Arc<SimClock>, log: NodeLog) -> Result<Self> {
+        let qos = qos::sensor_data(1);
+        let topic = create_topic::<Clock>(node, "/clock", &qos)?;
+        let subscription = node
+            .create_subscription::<Clock>(&topic, Some(qos))
+            .map_err(|e| RuntimeError::Middleware(format!("subscription to /clock: {e}")))?;
+        let (stop, stopped) = oneshot::channel::<()>();
+        let thread = std::thread::Builder::new()
+            .name("ros-clock".into())
+            .spawn(move || {
+                log.enter();
+                futures::executor::block_on(async {
+                    let mut stopped = stopped.fuse();
+                    loop {
+                        let message = futures::select! {
+                            message = subscription.async_take().fuse() => message,
+                            _ = stopped => break,
+                        };
+                        match message {
+                            Ok((message, _)) => {
+                                if let ClockUpdate::Backward { from, to } = clock.set(message.clock)
+                                {
+                                    log::warn!(
+                                        "/clock went back from {}.{:09} to {}.{:09} s: frames \
+                                         waiting for a partner are dropped and pairing starts \
+                                         again",
+                                        from.sec,
+                                        from.nanosec,
+                                        to.sec,
+                                        to.nanosec
+                                    );
+                                }
+                            }
+                            Err(e) => log::warn!("undecodable /clock message: {e}"),
+                        }
+                    }
+                });
+            })
+            .map_err(|e| RuntimeError::Middleware(format!("/clock thread: {e}")))?;
+        Ok(Self {
+            stop: Some(stop),
+            thread: Some(thread),
+        })
+    }
+}
+
+impl Drop for ClockListener {
+    fn drop(&mut self) {
+        if let Some(stop) = self.stop.take() {
+            // The thread may already have ended; nothing is left to stop then.
+            let _ = stop.send(());
+        }
+        if let Some(thread) = self.thread.take()
+            && thread.join().is_err()
+        {
+            log::error!("/clock thread panicked");
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -110,6 +199,7 @@ mod tests {
         assert_eq!(sim.set(at(10)), ClockUpdate::Forward);
         assert_eq!(clock.now(), at(10));
         assert_eq!(sim.set(at(10)), ClockUpdate::Forward);
+        assert_eq!(sim.backward_jumps(), 0);
         assert_eq!(
             sim.set(at(4)),
             ClockUpdate::Backward {
@@ -118,6 +208,7 @@ mod tests {
             }
         );
         assert_eq!(clock.now(), at(4));
+        assert_eq!(sim.backward_jumps(), 1);
     }
 
     #[test]

@@ -38,6 +38,7 @@ pub mod params_file;
 pub mod qos;
 pub mod queue;
 pub mod raw;
+mod ready;
 pub mod sequence_gaps;
 pub mod service;
 pub mod shutdown;

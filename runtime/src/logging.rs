@@ -57,8 +57,8 @@ struct State {
 #[derive(Clone)]
 pub struct NodeLog(Arc<State>);
 
-/// The process logger: every registered node's logging, and the first one, which
-/// threads of no node log as.
+/// The process logger: it finds each record's node through the logging thread's
+/// [`NodeLog`], and keeps the first node registered for threads of no node.
 struct NodeLogger {
     first: RwLock<Option<NodeLog>>,
 }
@@ -68,6 +68,7 @@ static LOGGER: NodeLogger = NodeLogger {
 };
 
 thread_local! {
+    // Publishing on /rosout may itself log; such records must not loop back.
     static IN_LOGGER: Cell<bool> = const { Cell::new(false) };
     static CURRENT: RefCell<Option<NodeLog>> = const { RefCell::new(None) };
 }
@@ -97,17 +98,6 @@ fn is_library(target: &str) -> bool {
 }
 
 impl NodeLogger {
-    fn passes(state: &State, metadata: &log::Metadata<'_>) -> bool {
-        let level = rank(metadata.level());
-        if is_library(metadata.target()) {
-            state.config.external_lib_logs && level >= state.config.level || level >= LogLevel::Warn
-        } else {
-            level >= state.config.level
-        }
-    }
-}
-
-impl NodeLogger {
     /// The logging of the node whose thread this is, or of the first node.
     fn current(&self) -> Option<NodeLog> {
         CURRENT
@@ -118,6 +108,15 @@ impl NodeLogger {
                     .unwrap_or_else(PoisonError::into_inner)
                     .clone()
             })
+    }
+
+    fn passes(state: &State, metadata: &log::Metadata<'_>) -> bool {
+        let level = rank(metadata.level());
+        if is_library(metadata.target()) {
+            state.config.external_lib_logs && level >= state.config.level || level >= LogLevel::Warn
+        } else {
+            level >= state.config.level
+        }
     }
 }
 
@@ -141,6 +140,7 @@ impl log::Log for NodeLogger {
                 .unwrap_or_default();
             let message = record.args().to_string();
             if state.config.stderr {
+                // A closed stderr must not stop the node.
                 let _ = writeln!(
                     std::io::stderr().lock(),
                     "[{}] [{}.{:09}] [{}]: {}",

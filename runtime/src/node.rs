@@ -3,7 +3,6 @@
 //! logging, the DDS participant on `ROS_DOMAIN_ID`, and the background spinner that
 //! answers discovery.
 
-use std::future::Future;
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
@@ -16,7 +15,7 @@ use serde::de::DeserializeOwned;
 use stereocal_msgs::RosMessage;
 
 use super::args::RosArgs;
-use super::clock::NodeClock;
+use super::clock::{ClockListener, NodeClock};
 use super::error::{Result, RuntimeError};
 use super::logging::{self, LogConfig, NodeLog};
 use super::names::NodeIdentity;
@@ -24,6 +23,7 @@ use super::param_services::ParameterServices;
 use super::param_store::ParameterStore;
 use super::params::{ParamSpec, startup_params, type_name};
 use super::raw::RawCdr;
+use super::ready::ready_before;
 use super::service::{self, ServiceClient, ServiceServer};
 use super::shutdown::Shutdown;
 use super::transport::{TransportConfig, TransportError};
@@ -237,10 +237,20 @@ impl NodeBuilder {
             log.clone(),
             Arc::clone(&params),
         )?;
+        let clock_listener = match clock.simulated() {
+            Some(sim) => Some(ClockListener::start(
+                &mut node,
+                Arc::clone(sim),
+                log.clone(),
+            )?),
+            None => None,
+        };
         let spinner = node.spinner().map_err(|e| middleware("node spinner", e))?;
+        let spinner_log = log.clone();
         let spinner_thread = std::thread::Builder::new()
             .name("ros-spinner".into())
             .spawn(move || {
+                spinner_log.enter();
                 if let Err(e) = futures::executor::block_on(spinner.spin()) {
                     log::error!("node spinner stopped: {e}");
                 }
@@ -264,6 +274,7 @@ impl NodeBuilder {
             params,
             clock,
             log,
+            clock_listener,
             parameter_services: Some(parameter_services),
             node: Some(node),
             _context: context,
@@ -282,6 +293,7 @@ pub struct RosNode {
     params: Arc<ParameterStore>,
     clock: NodeClock,
     log: NodeLog,
+    clock_listener: Option<ClockListener>,
     parameter_services: Option<ParameterServices>,
     node: Option<Node>,
     _context: Context,
@@ -460,21 +472,8 @@ impl RosNode {
         publisher: &Publisher<M>,
         deadline: std::time::Instant,
     ) -> bool {
-        let Ok(node) = self.node() else {
-            return false;
-        };
-        let mut wait = std::pin::pin!(publisher.wait_for_subscription(node));
-        let waker = futures::task::noop_waker();
-        let mut context = std::task::Context::from_waker(&waker);
-        loop {
-            if wait.as_mut().poll(&mut context).is_ready() {
-                return true;
-            }
-            if std::time::Instant::now() >= deadline {
-                return false;
-            }
-            std::thread::sleep(std::time::Duration::from_millis(5));
-        }
+        self.node()
+            .is_ok_and(|node| ready_before(publisher.wait_for_subscription(node), deadline))
     }
 
     /// Serves service `name` (resolved for this node, e.g. `~/calibrate`).
@@ -503,6 +502,7 @@ impl RosNode {
 impl Drop for RosNode {
     fn drop(&mut self) {
         self.log.detach_rosout();
+        self.clock_listener = None;
         self.parameter_services = None;
         // Dropping the node tells its spinner to stop.
         self.node = None;

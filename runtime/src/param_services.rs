@@ -35,7 +35,7 @@ use crate::params::{ParamRange, ParamSpec};
 use crate::service::{ServiceServer, Srv, create_server};
 
 /// The wire form of a parameter value.
-pub fn value_to_wire(value: &ParameterValue) -> wire::ParameterValue {
+pub fn wire_from_value(value: &ParameterValue) -> wire::ParameterValue {
     let mut out = wire::ParameterValue::default();
     match value {
         ParameterValue::NotSet => {}
@@ -97,10 +97,10 @@ pub fn value_from_wire(value: wire::ParameterValue) -> std::result::Result<Param
     })
 }
 
-fn parameter_to_wire(parameter: &Parameter) -> wire::Parameter {
+fn wire_from_parameter(parameter: &Parameter) -> wire::Parameter {
     wire::Parameter {
         name: parameter.name.clone(),
-        value: value_to_wire(&parameter.value),
+        value: wire_from_value(&parameter.value),
     }
 }
 
@@ -135,7 +135,7 @@ pub fn descriptor(spec: &ParamSpec) -> ParameterDescriptor {
     };
     ParameterDescriptor {
         name: spec.name.clone(),
-        type_: value_to_wire(&spec.default).type_,
+        type_: wire_from_value(&spec.default).type_,
         description: spec.description.clone(),
         additional_constraints: spec.additional_constraints(),
         read_only: spec.read_only,
@@ -200,8 +200,8 @@ impl Endpoints {
         let event = ParameterEvent {
             stamp: self.clock.now(),
             node: self.node_name.clone(),
-            new_parameters: new_parameters.iter().map(parameter_to_wire).collect(),
-            changed_parameters: changed_parameters.iter().map(parameter_to_wire).collect(),
+            new_parameters: new_parameters.iter().map(wire_from_parameter).collect(),
+            changed_parameters: changed_parameters.iter().map(wire_from_parameter).collect(),
             deleted_parameters: Vec::new(),
         };
         if let Err(e) = self.events.publish(event) {
@@ -224,7 +224,9 @@ impl Endpoints {
             values: request
                 .names
                 .iter()
-                .map(|name| value_to_wire(&self.store.get(name).unwrap_or(ParameterValue::NotSet)))
+                .map(|name| {
+                    wire_from_value(&self.store.get(name).unwrap_or(ParameterValue::NotSet))
+                })
                 .collect(),
         }
     }
@@ -237,7 +239,7 @@ impl Endpoints {
                 .map(|name| {
                     self.store
                         .get(name)
-                        .map_or(parameter_type::NOT_SET, |v| value_to_wire(&v).type_)
+                        .map_or(parameter_type::NOT_SET, |v| wire_from_value(&v).type_)
                 })
                 .collect(),
         }
@@ -274,7 +276,9 @@ impl Endpoints {
                 for p in &changed {
                     log::info!("parameter {} set to {:?}", p.name, p.value);
                 }
-                self.publish(Vec::new(), changed);
+                if !changed.is_empty() {
+                    self.publish(Vec::new(), changed);
+                }
             })),
         }
     }
@@ -424,7 +428,7 @@ mod tests {
             ParameterValue::StringArray(vec!["a".into()]),
         ];
         for value in values {
-            assert_eq!(value_from_wire(value_to_wire(&value)), Ok(value));
+            assert_eq!(value_from_wire(wire_from_value(&value)), Ok(value));
         }
         let unknown = wire::ParameterValue {
             type_: 42,

@@ -152,11 +152,9 @@ impl ParameterStore {
     }
 
     /// Sets every parameter of `parameters`, or none when any is refused (the reason
-    /// names it); the parameters as changed.
+    /// names it); the parameters as changed (none for an empty request, which succeeds
+    /// as in rclcpp).
     pub fn set_atomically(&self, parameters: &[Parameter]) -> Result<Vec<Parameter>, String> {
-        if parameters.is_empty() {
-            return Err("no parameters given".into());
-        }
         let mut entries = self.entries();
         let checked = parameters
             .iter()
@@ -314,5 +312,6 @@ mod tests {
         assert_eq!(changed.map(|c| c.len()), Ok(2));
         assert_eq!(store.get("interpolation"), Some(ParameterValue::Integer(0)));
         assert_eq!(store.get("camera.gain"), Some(ParameterValue::Double(3.0)));
+        assert_eq!(store.set_atomically(&[]).map(|c| c.len()), Ok(0));
     }
 }

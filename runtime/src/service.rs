@@ -2,7 +2,6 @@
 //! types of stereocal-msgs, with the Enhanced RPC-over-DDS mapping that rclcpp uses and
 //! rclcpp's default service QoS.
 
-use std::future::Future;
 use std::time::{Duration, Instant};
 
 use ros2_client::qos::{History, QosProfile, WhenFull};
@@ -14,6 +13,7 @@ use stereocal_msgs::std_srvs::srv::{TriggerRequest, TriggerResponse};
 
 use crate::error::{Result, RuntimeError};
 use crate::node::RosNode;
+use crate::ready::ready_before;
 
 /// How often [`call`] and [`wait_for_server`] look again.
 const POLL_PERIOD: Duration = Duration::from_millis(5);
@@ -142,19 +142,7 @@ where
     Req: Serialize + DeserializeOwned + 'static,
     Resp: Serialize + DeserializeOwned + 'static,
 {
-    let deadline = Instant::now() + timeout;
-    let mut wait = std::pin::pin!(client.wait_for_service(node));
-    let waker = futures::task::noop_waker();
-    let mut context = std::task::Context::from_waker(&waker);
-    loop {
-        if wait.as_mut().poll(&mut context).is_ready() {
-            return true;
-        }
-        if Instant::now() >= deadline {
-            return false;
-        }
-        std::thread::sleep(POLL_PERIOD);
-    }
+    ready_before(client.wait_for_service(node), Instant::now() + timeout)
 }
 
 /// `std_srvs/Trigger` services a node's worker answers between frames, each known by a

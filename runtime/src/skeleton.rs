@@ -19,12 +19,9 @@ use ros2_client::{Gid, MessageInfo, QosProfile, Subscription};
 use serde::de::DeserializeOwned;
 use stereocal_msgs::RosMessage;
 use stereocal_msgs::builtin_interfaces::Time;
-use stereocal_msgs::rosgraph_msgs::Clock;
 
-use crate::clock::ClockUpdate;
 use crate::error::{Result, RuntimeError};
 use crate::node::RosNode;
-use crate::qos;
 use crate::queue::DropOldestQueue;
 use crate::sequence_gaps::SequenceGaps;
 use crate::stamp::Stamped;
@@ -45,8 +42,6 @@ enum Incoming<F, C> {
         stamp: Time,
         item: C,
     },
-    /// Simulated time from `/clock`.
-    Clock(Time),
     Undecodable {
         topic: String,
         error: String,
@@ -270,36 +265,28 @@ where
             })?
     };
 
-    let mut node = node;
     let clock = node.clock();
-    // With use_sim_time, /clock is received in turn with the frames, so a clock that
-    // goes back resets the pairing before the next frame is paired.
-    let clock_source: Option<Box<dyn Incomings<F, C>>> = match clock.simulated() {
-        Some(_) => Some(Box::new(Source {
-            topic: "/clock".to_owned(),
-            subscription: node.subscribe::<Clock>("/clock", qos::sensor_data(1))?,
-            deliver: Box::new(|message: Clock, _: &MessageInfo| Incoming::Clock(message.clock)),
-        })),
-        None => None,
-    };
     let shutdown = node.shutdown();
     let mut sync = Synchronizer::<F, C>::new(inputs.streams, inputs.latched, inputs.policy);
     let mut gaps = SequenceGaps::default();
     let mut throttle = Throttle::new(clock.clone());
     futures::executor::block_on(async {
-        let mut incoming = futures::stream::select_all(
-            inputs
-                .sources
-                .iter()
-                .chain(clock_source.iter())
-                .map(|source| source.incoming()),
-        );
+        let mut incoming =
+            futures::stream::select_all(inputs.sources.iter().map(|source| source.incoming()));
+        let mut backward_jumps = clock.simulated().map_or(0, |sim| sim.backward_jumps());
         let mut stop = shutdown.wait().fuse();
         loop {
             let message = futures::select! {
                 message = incoming.select_next_some() => message,
                 () = stop => break,
             };
+            // Time went back (a replay restarted): nothing waiting can pair any more.
+            if let Some(jumps) = clock.simulated().map(|sim| sim.backward_jumps())
+                && jumps != backward_jumps
+            {
+                backward_jumps = jumps;
+                sync.reset();
+            }
             let synced = match message {
                 Incoming::Frame {
                     stream,
@@ -318,22 +305,6 @@ where
                     sync.push_stream(stream, stamp, frame)
                 }
                 Incoming::Latched { input, stamp, item } => sync.push_latched(input, stamp, item),
-                Incoming::Clock(time) => {
-                    if let Some(ClockUpdate::Backward { from, to }) =
-                        clock.simulated().map(|sim| sim.set(time))
-                    {
-                        log::warn!(
-                            "/clock went back from {}.{:09} to {}.{:09} s: frames waiting for \
-                             a partner are dropped and pairing starts again",
-                            from.sec,
-                            from.nanosec,
-                            to.sec,
-                            to.nanosec
-                        );
-                        sync.reset();
-                    }
-                    Vec::new()
-                }
                 Incoming::Undecodable { topic, error } => {
                     throttle.warn(format!("undecodable message on {topic}: {error}"));
                     Vec::new()
@@ -379,7 +350,6 @@ where
         stats.unpaired(),
     );
     // Readers go before the node and its DDS participant, which must remove them.
-    drop(clock_source);
     drop(inputs);
     drop(node);
     Ok(())

@@ -190,9 +190,10 @@ impl<F, C> Synchronizer<F, C> {
         out
     }
 
-    /// Forgets the stream frames and sets waiting for a partner (counted as unpaired),
-    /// as when time went back; latched items are kept, so a camera_info sent once still
-    /// serves the frames to come.
+    /// Forgets every frame not yet handed out, those waiting for a partner and the sets
+    /// waiting for a latched item (all counted as unpaired), as when time went back;
+    /// latched items are kept, so a camera_info sent once still serves the frames to
+    /// come.
     pub fn reset(&mut self) {
         let waiting: usize = self.streams.iter().map(VecDeque::len).sum::<usize>()
             + self

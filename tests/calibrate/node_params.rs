@@ -137,7 +137,8 @@ fn every_parameter_is_described_in_one_response() {
     ]);
     let process = NodeProcess::spawn(command, domain.id()).expect("calibrate_node starts");
     // RustDDS's default transport advertises every interface, so the node's replies
-    // to this peer are fragmented at the network's datagram size.
+    // to this peer are fragmented at the datagram size of the host's network interface
+    // (on a host with loopback alone they would fit one 64 KiB datagram).
     let mut peer = PeerNode::new(
         &TransportConfig::rustdds_defaults(),
         domain.id(),
