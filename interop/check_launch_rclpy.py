@@ -20,7 +20,7 @@ import tempfile
 from pathlib import Path
 
 import yaml
-from launch_harness import evaluate
+from launch_harness import evaluate, overridden
 from ros2_rclpy import Checks, DomainLease, NodeProcess, Parameters, Peer, require
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -122,16 +122,8 @@ def check_case(checks, launch_file, arguments, processes, expected, workdir):
     lease = DomainLease()
     peer = Peer(lease.id, name="launch_check")
     # What the launch file sets in the environment, its processes get.
-    saved = {name: os.environ.get(name) for name in evaluation.environment}
-    os.environ.update(evaluation.environment)
-    try:
+    with overridden(os.environ, evaluation.environment):
         node_processes = [NodeProcess(n.command(workdir), lease.id) for n in evaluation.nodes]
-    finally:
-        for name, value in saved.items():
-            if value is None:
-                os.environ.pop(name, None)
-            else:
-                os.environ[name] = value
     for process in node_processes:
         peer.watch(process)
     try:

@@ -16,6 +16,7 @@ import importlib.util
 import os
 import sys
 import types
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import yaml
@@ -154,21 +155,29 @@ def _stub_modules():
     }
 
 
+@contextmanager
+def overridden(mapping, values):
+    """`mapping` (such as sys.modules or os.environ) with `values` set in it, and as it
+    was again afterwards."""
+    saved = {name: mapping.get(name) for name in values}
+    mapping.update(values)
+    try:
+        yield
+    finally:
+        for name, original in saved.items():
+            if original is None:
+                mapping.pop(name, None)
+            else:
+                mapping[name] = original
+
+
 def load(path):
     """Imports the launch file at `path` against the stand-in modules."""
-    saved = {name: sys.modules.get(name) for name in _stub_modules()}
-    sys.modules.update(_stub_modules())
-    try:
+    with overridden(sys.modules, _stub_modules()):
         spec = importlib.util.spec_from_file_location(f"launch_file_{abs(hash(path))}", path)
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
         return module
-    finally:
-        for name, original in saved.items():
-            if original is None:
-                sys.modules.pop(name, None)
-            else:
-                sys.modules[name] = original
 
 
 def _namespace(value, context):

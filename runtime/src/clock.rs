@@ -10,15 +10,14 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Mutex, PoisonError};
-use std::thread::JoinHandle;
 use std::time::{SystemTime, UNIX_EPOCH};
 
 use futures::FutureExt;
-use futures::channel::oneshot;
 use ros2_client::Node;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::rosgraph_msgs::Clock;
 
+use crate::background::BackgroundTask;
 use crate::error::{Result, RuntimeError};
 use crate::logging::NodeLog;
 use crate::node::create_topic;
@@ -114,8 +113,7 @@ impl NodeClock {
 
 /// Receives `/clock` into a node's [`SimClock`] on a thread of its own, until dropped.
 pub(crate) struct ClockListener {
-    stop: Option<oneshot::Sender<()>>,
-    thread: Option<JoinHandle<()>>,
+    _task: BackgroundTask,
 }
 
 impl ClockListener {
@@ -127,57 +125,31 @@ impl ClockListener {
         let subscription = node
             .create_subscription::<Clock>(&topic, Some(qos))
             .map_err(|e| RuntimeError::Middleware(format!("subscription to /clock: {e}")))?;
-        let (stop, stopped) = oneshot::channel::<()>();
-        let thread = std::thread::Builder::new()
-            .name("ros-clock".into())
-            .spawn(move || {
-                log.enter();
-                futures::executor::block_on(async {
-                    let mut stopped = stopped.fuse();
-                    loop {
-                        let message = futures::select! {
-                            message = subscription.async_take().fuse() => message,
-                            _ = stopped => break,
-                        };
-                        match message {
-                            Ok((message, _)) => {
-                                if let ClockUpdate::Backward { from, to } = clock.set(message.clock)
-                                {
-                                    log::warn!(
-                                        "/clock went back from {}.{:09} to {}.{:09} s: frames \
-                                         waiting for a partner are dropped and pairing starts \
-                                         again",
-                                        from.sec,
-                                        from.nanosec,
-                                        to.sec,
-                                        to.nanosec
-                                    );
-                                }
-                            }
-                            Err(e) => log::warn!("undecodable /clock message: {e}"),
+        let task = BackgroundTask::spawn("ros-clock", log, move |stop| async move {
+            let mut stop = stop.fuse();
+            loop {
+                let message = futures::select! {
+                    message = subscription.async_take().fuse() => message,
+                    _ = stop => break,
+                };
+                match message {
+                    Ok((message, _)) => {
+                        if let ClockUpdate::Backward { from, to } = clock.set(message.clock) {
+                            log::warn!(
+                                "/clock went back from {}.{:09} to {}.{:09} s: frames waiting \
+                                 for a partner are dropped and pairing starts again",
+                                from.sec,
+                                from.nanosec,
+                                to.sec,
+                                to.nanosec
+                            );
                         }
                     }
-                });
-            })
-            .map_err(|e| RuntimeError::Middleware(format!("/clock thread: {e}")))?;
-        Ok(Self {
-            stop: Some(stop),
-            thread: Some(thread),
-        })
-    }
-}
-
-impl Drop for ClockListener {
-    fn drop(&mut self) {
-        if let Some(stop) = self.stop.take() {
-            // The thread may already have ended; nothing is left to stop then.
-            let _ = stop.send(());
-        }
-        if let Some(thread) = self.thread.take()
-            && thread.join().is_err()
-        {
-            log::error!("/clock thread panicked");
-        }
+                    Err(e) => log::warn!("undecodable /clock message: {e}"),
+                }
+            }
+        })?;
+        Ok(Self { _task: task })
     }
 }
 

@@ -24,6 +24,7 @@
 //! domains of their own, for tests and measuring tools.
 
 pub mod args;
+mod background;
 pub mod camera_info_url;
 pub mod clock;
 pub mod error;

@@ -9,10 +9,8 @@
 //! answers `ros2 param` at once.
 
 use std::sync::Arc;
-use std::thread::JoinHandle;
 use std::time::Duration;
 
-use futures::channel::oneshot;
 use futures::{FutureExt, StreamExt};
 use ros2_client::qos::{Durability, History, QosProfile, WhenFull};
 use ros2_client::{Context, Node, Parameter, ParameterValue, Publisher};
@@ -27,6 +25,7 @@ use stereocal_msgs::rcl_interfaces::{
     ParameterEvent, SetParametersResult, parameter_type,
 };
 
+use crate::background::{BackgroundTask, StopSignal};
 use crate::clock::NodeClock;
 use crate::error::{Result, RuntimeError};
 use crate::logging::NodeLog;
@@ -298,7 +297,7 @@ impl Endpoints {
     }
 
     /// Answers requests until `stop` fires.
-    async fn serve(self, stop: oneshot::Receiver<()>) {
+    async fn serve(self, stop: StopSignal) {
         let mut stop = stop.fuse();
         let mut list = Box::pin(self.list.receive_request_stream()).fuse();
         let mut get = Box::pin(self.get.receive_request_stream()).fuse();
@@ -344,8 +343,7 @@ impl Endpoints {
 
 /// The parameter services of one node, answering on their own thread until dropped.
 pub struct ParameterServices {
-    stop: Option<oneshot::Sender<()>>,
-    thread: Option<JoinHandle<()>>,
+    _task: BackgroundTask,
 }
 
 impl ParameterServices {
@@ -380,32 +378,8 @@ impl ParameterServices {
             describe: create_server(node, &service("describe_parameters"))?,
         };
         endpoints.publish(endpoints.store.all(), Vec::new());
-        let (stop, stopped) = oneshot::channel();
-        let thread = std::thread::Builder::new()
-            .name("ros-parameters".into())
-            .spawn(move || {
-                log.enter();
-                futures::executor::block_on(endpoints.serve(stopped));
-            })
-            .map_err(|e| RuntimeError::Middleware(format!("parameter services thread: {e}")))?;
-        Ok(ParameterServices {
-            stop: Some(stop),
-            thread: Some(thread),
-        })
-    }
-}
-
-impl Drop for ParameterServices {
-    fn drop(&mut self) {
-        if let Some(stop) = self.stop.take() {
-            // The thread may already have ended; nothing is left to stop then.
-            let _ = stop.send(());
-        }
-        if let Some(thread) = self.thread.take()
-            && thread.join().is_err()
-        {
-            log::error!("parameter services thread panicked");
-        }
+        let task = BackgroundTask::spawn("ros-parameters", log, move |stop| endpoints.serve(stop))?;
+        Ok(ParameterServices { _task: task })
     }
 }
 
