@@ -2,7 +2,10 @@
 //! config/stereo_rectify_composition.yaml runs in one process, each node under its own
 //! name and namespace and the parameters of the params file given on the command line,
 //! rectifying its side of the bundled stereo bag exactly as the rectify stage does,
-//! logging under its own logger name, and both stop on one SIGTERM. A composition naming an unknown node is refused at start-up.
+//! logging under its own logger name, and both stop on one SIGTERM. In a composition
+//! where calibrate_node takes rectify_node's output, the frames reach it by reference
+//! and never go over DDS while nothing outside subscribes them. A composition naming an
+//! unknown node is refused at start-up.
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -158,5 +161,97 @@ fn a_composition_naming_an_unknown_node_is_refused_at_start_up() {
     assert!(
         !stderr.contains("started"),
         "a node was started before the composition was checked:\n{stderr}"
+    );
+}
+
+#[test]
+fn a_rectified_frame_reaches_a_node_of_the_same_process_without_dds() {
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let dir = tempfile::tempdir().expect("temp dir");
+    // calibrate_node judges what rectify_node publishes, in the same process; nothing
+    // outside subscribes image_rect.
+    let composition = dir.path().join("composition.yaml");
+    std::fs::write(
+        &composition,
+        format!(
+            "nodes:\n  - node: rectify\n    args: [-r, __ns:=/stereo/left, -r, image:=image_raw]\n  \
+             - node: calibrate\n    args: [-r, __ns:=/inspect, -r, image:=/stereo/left/image_rect, \
+             -p, size:=9x6, -p, square:=0.025, -p, 'state_dir:={}']\n",
+            dir.path().join("state").display()
+        ),
+    )
+    .expect("write composition");
+    let mut command = Command::new(env!("CARGO_BIN_EXE_stereocal"));
+    command.args(["node", "compose"]).arg(&composition);
+    let process = NodeProcess::spawn(command, domain.id()).expect("composition starts");
+    let mut peer = PeerNode::new(
+        &TransportConfig::rustdds_defaults(),
+        domain.id(),
+        "/test",
+        "in_process",
+    )
+    .expect("test node");
+    let (image, info) = first_frame("left");
+    let images = peer
+        .publisher::<Image>("/stereo/left/image_raw", qos::reliable(5))
+        .expect("image publisher");
+    let infos = peer
+        .publisher::<CameraInfo>("/stereo/left/camera_info", qos::reliable(5))
+        .expect("camera_info publisher");
+    let status = peer
+        .subscription::<stereocal_msgs::std_msgs::String>(
+            "/inspect/calibrate_node/status",
+            qos::reliable(10).durability(ros2_client::qos::Durability::TransientLocal),
+        )
+        .expect("status subscription");
+
+    const JUDGED: u64 = 3;
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let mut received = 0;
+    let mut sent = 0u32;
+    while received < JUDGED {
+        assert!(
+            Instant::now() < deadline,
+            "calibrate_node received {received} rectified frames in 60 s:\n{}",
+            process.logs()
+        );
+        let mut frame = image.clone();
+        let mut frame_info = info.clone();
+        sent += 1;
+        frame.header.stamp.nanosec = sent;
+        frame_info.header.stamp.nanosec = sent;
+        infos.publish(frame_info).expect("publish camera_info");
+        images.publish(frame).expect("publish image");
+        let until = Instant::now() + Duration::from_millis(300);
+        while Instant::now() < until {
+            while let Ok(Some((message, _))) = status.take() {
+                let value: serde_json::Value =
+                    serde_json::from_str(&message.data).expect("status JSON");
+                received = value["frames"]["received"].as_u64().unwrap_or(0);
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+    let exit = process.terminate();
+    assert!(
+        exit.clean(),
+        "the composition failed on SIGTERM:\n{}",
+        exit.logs
+    );
+    let summary = exit
+        .logs
+        .lines()
+        .find(|l| l.contains("[stereo.left.rectify_node]: shutting down: "))
+        .unwrap_or_else(|| panic!("no rectify_node summary:\n{}", exit.logs));
+    let published: u64 = summary
+        .split(" frame(s) received, ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no published count in {summary}"));
+    assert!(published >= JUDGED, "{summary}");
+    assert!(
+        summary.contains("published (0 over DDS)"),
+        "image_rect went over DDS with no reader outside the process: {summary}"
     );
 }

@@ -18,6 +18,8 @@
 //! (stereo) when a server answers within a second, `~/reset` forgets every sample.
 //! With `auto_calibrate` the node calibrates by itself once coverage is ready.
 
+use std::sync::Arc;
+
 use anyhow::Context;
 use stereocal_msgs::sensor_msgs::Image;
 use stereocal_msgs::std_msgs;
@@ -67,7 +69,7 @@ where
         slop: settings.slop,
         depth,
     };
-    let mut inputs = Inputs::<Image, ()>::new(policy);
+    let mut inputs = Inputs::<Arc<Image>, ()>::new(policy);
     for topic in &image_topics {
         inputs = inputs.stream::<Image>(&mut node, topic, qos::sensor_data(depth))?;
     }

@@ -2,15 +2,16 @@
 //! [`CalibrationSession`], publishes the annotated images and `~/status`, and answers
 //! `~/calibrate`, `~/commit` and `~/reset` between frames.
 
+use std::sync::Arc;
 use std::time::Duration;
 
-use ros2_client::Publisher;
 use stereocal_msgs::CameraInfoFile;
 use stereocal_msgs::sensor_msgs::Image;
 use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
 use stereocal_msgs::std_msgs;
 use stereocal_msgs::std_srvs::srv::TriggerResponse;
 use stereocal_runtime::clock::NodeClock;
+use stereocal_runtime::publisher::TopicPublisher;
 use stereocal_runtime::service::{self, ServiceClient, TriggerServices};
 use stereocal_runtime::skeleton::{FrameStats, Worker};
 use stereocal_runtime::sync::Synced;
@@ -57,9 +58,9 @@ pub type SetCameraInfo = (
 /// What the worker publishes on, serves and calls.
 pub struct Endpoints {
     /// `~/status`.
-    pub status: Publisher<std_msgs::String>,
+    pub status: TopicPublisher<std_msgs::String>,
     /// `~/annotated_image`, or `~/left/annotated_image` and `~/right/annotated_image`.
-    pub annotated: Vec<Publisher<Image>>,
+    pub annotated: Vec<TopicPublisher<Image>>,
     /// `~/calibrate`, `~/commit`, `~/reset`.
     pub services: TriggerServices<Service>,
     /// Each camera's `set_camera_info`, in camera order.
@@ -128,7 +129,7 @@ impl CalibrateWorker {
     /// coverage bars and the verdict.
     fn publish_annotated(
         &mut self,
-        frame: &Synced<Image, ()>,
+        frame: &Synced<Arc<Image>, ()>,
         images: &[VisionImage],
         offer: &Offer,
         progress: &Progress,
@@ -247,7 +248,7 @@ impl CalibrateWorker {
 }
 
 impl Worker for CalibrateWorker {
-    type Work = Synced<Image, ()>;
+    type Work = Synced<Arc<Image>, ()>;
     const NAME: &'static str = "calibrate";
     // Services are answered between frames: often enough that a call feels immediate.
     const POLL: Duration = Duration::from_millis(20);

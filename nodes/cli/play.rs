@@ -18,6 +18,7 @@ use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::rosgraph_msgs::Clock;
 use stereocal_rosbag::{BagReader, Durability, OfferedQos, Reliability, TopicFilter};
 use stereocal_runtime::node::{NodeBuilder, RosNode};
+use stereocal_runtime::publisher::TopicPublisher;
 use stereocal_runtime::qos;
 use stereocal_runtime::raw::RawCdr;
 use stereocal_runtime::shutdown::Shutdown;
@@ -166,7 +167,7 @@ fn replay_qos(offered: &[OfferedQos]) -> QosProfile {
 fn wait_for_subscribers(
     node: &RosNode,
     played: &BTreeMap<String, Played>,
-    clock: Option<&Publisher<Clock>>,
+    clock: Option<&TopicPublisher<Clock>>,
     limit: Duration,
 ) {
     let deadline = Instant::now() + limit;
@@ -175,7 +176,7 @@ fn wait_for_subscribers(
         .filter(|(_, p)| !node.wait_for_subscription(&p.publisher, deadline))
         .map(|(topic, _)| topic.as_str())
         .collect();
-    if clock.is_some_and(|clock| !node.wait_for_subscription(clock, deadline)) {
+    if clock.is_some_and(|clock| !clock.wait_for_outside_reader(deadline)) {
         unheard.push("/clock");
     }
     if !unheard.is_empty() {
@@ -189,7 +190,7 @@ fn play_once(
     filter: &TopicFilter,
     args: &PlayArgs,
     played: &mut BTreeMap<String, Played>,
-    clock: Option<&Publisher<Clock>>,
+    clock: Option<&TopicPublisher<Clock>>,
     shutdown: &Shutdown,
 ) -> anyhow::Result<()> {
     let started = Instant::now();

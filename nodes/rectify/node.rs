@@ -7,11 +7,14 @@
 //! `queue_size` (frames kept on each topic and between receiving and rectifying; older
 //! frames are dropped and counted when rectifying falls behind).
 
+use std::sync::Arc;
+
 use anyhow::Context;
-use ros2_client::{ParameterValue, Publisher};
+use ros2_client::ParameterValue;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 use stereocal_runtime::node::NodeBuilder;
 use stereocal_runtime::params::ParamSpec;
+use stereocal_runtime::publisher::TopicPublisher;
 use stereocal_runtime::qos;
 use stereocal_runtime::skeleton::{self, FrameStats, Inputs, Worker};
 use stereocal_runtime::sync::{SyncPolicy, Synced};
@@ -22,13 +25,13 @@ use super::stage::{Rectified, Rectifier};
 
 /// A frame to rectify, with the interpolation in force when it was received.
 struct Work {
-    frame: Synced<Image, CameraInfo>,
+    frame: Synced<Arc<Image>, CameraInfo>,
     interpolation: Interpolation,
 }
 
 /// Rectifies each frame with the [`Rectifier`] of its interpolation and publishes it.
 struct RectifyWorker {
-    publisher: Publisher<Image>,
+    publisher: TopicPublisher<Image>,
     rectifier: Option<Rectifier>,
     published: u64,
     throttle: Throttle,
@@ -68,7 +71,11 @@ impl Worker for RectifyWorker {
     }
 
     fn summary(&self) -> String {
-        format!("{} published", self.published)
+        format!(
+            "{} published ({} over DDS)",
+            self.published,
+            self.publisher.sent_over_dds()
+        )
     }
 }
 

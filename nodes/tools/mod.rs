@@ -1,9 +1,13 @@
 //! The measuring tools: the binaries `dds_latency` (the bare DDS transport between two
-//! processes) and `rectify_latency` (`rectify_node` end to end), whose sources are in
-//! this folder, and what they share with the replay of bags through nodes: image
-//! geometries to measure, the reliability of an endpoint, and latency percentiles.
+//! processes), `rectify_latency` (`rectify_node` end to end) and `composed_latency`
+//! (the stereo rectify pair composed in one process), whose sources are in this folder,
+//! and what they share with the replay of bags through nodes: image geometries to
+//! measure, the synthetic [`camera`], the reliability of an endpoint, and latency
+//! percentiles.
 
 use std::time::Duration;
+
+pub mod camera;
 
 /// One image geometry and 8-bit encoding to measure.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -22,7 +22,7 @@ use std::{
         atomic::{AtomicBool, AtomicUsize, Ordering},
     },
     thread,
-    time::{Duration, Instant, SystemTime, UNIX_EPOCH},
+    time::{Duration, Instant},
 };
 
 use anyhow::{Context as _, anyhow, bail};
@@ -32,10 +32,10 @@ use ros2_client::{
     dds::rustdds::mio1::{Events, Interest, Poll, Token},
 };
 use stereocal::rectify::stage::{Rectified, Rectifier};
+use stereocal::tools::camera::{camera_info, image, now, pixels};
 use stereocal::tools::{ImageSize, Percentiles, Reliability as Rel, percentiles};
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
-use stereocal_msgs::std_msgs::Header;
 use stereocal_runtime::qos;
 use stereocal_runtime::testing::{NodeProcess, PeerNode, block_on_timeout};
 use stereocal_runtime::transport::{RECEIVE_BUFFER_ENV, SEND_BUFFER_ENV, TransportConfig};
@@ -56,9 +56,6 @@ const WARM_UP_TIMEOUT: Duration = Duration::from_secs(10);
 /// Time the writers get after the first round trip before measuring, so late matches
 /// and warm-up frames still in flight settle.
 const SETTLE: Duration = Duration::from_millis(500);
-
-/// Optical frame of the simulated camera.
-const FRAME_ID: &str = "camera_optical";
 
 #[derive(Parser, Clone, Debug)]
 #[command(about = "Latency and delivery of rectify_node end to end over DDS")]
@@ -145,96 +142,6 @@ const TRANSPORT_VARIABLES: [&str; 4] = [
     RECEIVE_BUFFER_ENV,
     SEND_BUFFER_ENV,
 ];
-
-/// A camera_info such as a calibrated camera of this size publishes: focal length
-/// about a 70 degree field of view, principal point off centre, barrel distortion
-/// with tangential terms, and the small rotation of a rectified stereo left camera.
-fn camera_info(size: ImageSize, stamp: Time) -> CameraInfo {
-    let (w, h) = (f64::from(size.width), f64::from(size.height));
-    let f = 0.71 * w;
-    let (cx, cy) = ((w - 1.0) / 2.0 + 0.004 * w, (h - 1.0) / 2.0 - 0.005 * h);
-    let (sy, cy_) = 0.012_f64.sin_cos();
-    let (sx, cx_) = (-0.004_f64).sin_cos();
-    // Rotation about y, then about x.
-    let r = [
-        cy_,
-        0.0,
-        sy,
-        sx * sy,
-        cx_,
-        -sx * cy_,
-        -cx_ * sy,
-        sx,
-        cx_ * cy_,
-    ];
-    let fp = 0.93 * f;
-    CameraInfo {
-        header: Header {
-            stamp,
-            frame_id: FRAME_ID.into(),
-        },
-        width: size.width,
-        height: size.height,
-        distortion_model: "plumb_bob".into(),
-        d: vec![-0.291, 0.094, 0.0011, -0.0007, -0.0135],
-        k: [f, 0.0, cx, 0.0, 1.002 * f, cy, 0.0, 0.0, 1.0],
-        r,
-        p: [
-            fp,
-            0.0,
-            (w - 1.0) / 2.0,
-            0.0,
-            0.0,
-            fp,
-            (h - 1.0) / 2.0,
-            0.0,
-            0.0,
-            0.0,
-            1.0,
-            0.0,
-        ],
-        ..CameraInfo::default()
-    }
-}
-
-/// Pixels of camera image `pattern`: a checkerboard with gradients, different per
-/// pattern and channel.
-fn pixels(size: ImageSize, pattern: usize) -> Vec<u8> {
-    let channels = size.channels as usize;
-    let step = size.width as usize * channels;
-    let shift = pattern * 17;
-    (0..size.height as usize)
-        .flat_map(|y| {
-            (0..step).map(move |i| {
-                let (x, c) = (i / channels, i % channels);
-                let checker = (((x + shift) / 40 + y / 40) % 2) * 150;
-                (checker + (x * 3 + y * 5 + c * 40 + shift) % 100) as u8
-            })
-        })
-        .collect()
-}
-
-fn image(size: ImageSize, stamp: Time, data: Vec<u8>) -> Image {
-    Image {
-        header: Header {
-            stamp,
-            frame_id: FRAME_ID.into(),
-        },
-        height: size.height,
-        width: size.width,
-        encoding: size.encoding().into(),
-        is_bigendian: 0,
-        step: size.width * size.channels,
-        data,
-    }
-}
-
-fn now() -> Time {
-    let since = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .unwrap_or_default();
-    Time::from_nanos(i64::try_from(since.as_nanos()).unwrap_or(i64::MAX))
-}
 
 /// What was published with a given stamp.
 #[derive(Clone, Copy, Debug)]

@@ -15,7 +15,8 @@
 //! drop-oldest queue between receiving and processing, [`sequence_gaps`] counts frames
 //! lost before reception, [`logging`] writes to stderr and `/rosout`, [`throttle`] keeps
 //! repeated warnings rare, [`shutdown`] turns SIGINT/SIGTERM into a clean stop,
-//! [`transport`] sets up the DDS participant, [`camera_info_url`] resolves
+//! [`publisher`] publishes to the nodes of this process by reference and over DDS to
+//! the others, [`transport`] sets up the DDS participant, [`camera_info_url`] resolves
 //! camera_info_manager's URLs, and [`node`] puts it together into a running ROS 2 node
 //! on `ROS_DOMAIN_ID` with its parameter services. [`skeleton`] runs a node:
 //! subscribe, synchronize, queue, work, publish, shut down.
@@ -28,6 +29,7 @@ mod background;
 pub mod camera_info_url;
 pub mod clock;
 pub mod error;
+mod intra;
 pub mod logging;
 pub mod names;
 pub mod node;
@@ -36,6 +38,7 @@ pub mod param_store;
 pub mod param_value;
 pub mod params;
 pub mod params_file;
+pub mod publisher;
 pub mod qos;
 pub mod queue;
 pub mod raw;

@@ -6,6 +6,7 @@
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
+use ros2_client::qos::Durability;
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, Publisher,
     QosProfile, Subscription,
@@ -22,6 +23,7 @@ use super::names::NodeIdentity;
 use super::param_services::ParameterServices;
 use super::param_store::ParameterStore;
 use super::params::{ParamSpec, startup_params, type_name};
+use super::publisher::TopicPublisher;
 use super::raw::RawCdr;
 use super::ready::ready_before;
 use super::service::{self, ServiceClient, ServiceServer};
@@ -277,7 +279,7 @@ impl NodeBuilder {
             clock_listener,
             parameter_services: Some(parameter_services),
             node: Some(node),
-            _context: context,
+            context,
             shutdown,
             spinner_thread: Some(spinner_thread),
         })
@@ -296,7 +298,7 @@ pub struct RosNode {
     clock_listener: Option<ClockListener>,
     parameter_services: Option<ParameterServices>,
     node: Option<Node>,
-    _context: Context,
+    context: Context,
     shutdown: Shutdown,
     spinner_thread: Option<JoinHandle<()>>,
 }
@@ -433,18 +435,25 @@ impl RosNode {
         Ok(subscription)
     }
 
-    /// Creates a publisher on topic `name` (resolved for this node) with `qos`.
-    pub fn advertise<M>(&mut self, name: &str, qos: QosProfile) -> Result<Publisher<M>>
+    /// Creates a publisher on topic `name` (resolved for this node) with `qos`: to the
+    /// subscribers in this process by reference, over DDS to those outside.
+    pub fn advertise<M>(&mut self, name: &str, qos: QosProfile) -> Result<TopicPublisher<M>>
     where
-        M: RosMessage + Serialize,
+        M: RosMessage + Serialize + Send + Sync + 'static,
     {
         let (resolved, topic) = self.topic::<M>(name, &qos)?;
+        let latched = qos.durability == Durability::TransientLocal;
         let publisher = self
             .node_mut()?
-            .create_publisher(&topic, Some(qos))
+            .create_publisher::<Arc<M>>(&topic, Some(qos))
             .map_err(|e| middleware(&format!("publisher on {resolved}"), e))?;
         log::debug!("publishing {resolved} ({})", M::TYPE_NAME);
-        Ok(publisher)
+        Ok(TopicPublisher::new(
+            &resolved,
+            publisher,
+            self.context.domain_participant(),
+            latched,
+        ))
     }
 
     /// Creates a publisher of recorded samples of ROS type `type_name` (`pkg/msg/Type`)

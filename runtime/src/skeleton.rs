@@ -9,18 +9,21 @@
 //! SIGINT/SIGTERM by letting the worker finish the frame at hand, logs what happened to
 //! every frame, and removes the node's readers before the node and its DDS participant.
 
+use std::cell::RefCell;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 
 use futures::stream::LocalBoxStream;
 use futures::{FutureExt, StreamExt};
-use ros2_client::{Gid, MessageInfo, QosProfile, Subscription};
+use ros2_client::qos::History;
+use ros2_client::{Gid, QosProfile, Subscription};
 use serde::de::DeserializeOwned;
 use stereocal_msgs::RosMessage;
 use stereocal_msgs::builtin_interfaces::Time;
 
 use crate::error::{Result, RuntimeError};
+use crate::intra::{IntraSubscription, is_in_process_writer};
 use crate::node::RosNode;
 use crate::queue::DropOldestQueue;
 use crate::sequence_gaps::SequenceGaps;
@@ -28,14 +31,17 @@ use crate::stamp::Stamped;
 use crate::sync::{SyncPolicy, Synced, Synchronizer};
 use crate::throttle::Throttle;
 
+/// In-process queue depth of a subscription whose QoS keeps all history.
+const DEFAULT_IN_PROCESS_DEPTH: usize = 10;
+
 /// What one input delivered.
 enum Incoming<F, C> {
     Frame {
         stream: usize,
         stamp: Time,
         frame: F,
-        publisher: Gid,
-        sequence: i64,
+        /// The DDS writer and its sequence number; none for a message of this process.
+        origin: Option<(Gid, i64)>,
     },
     Latched {
         input: usize,
@@ -48,37 +54,65 @@ enum Incoming<F, C> {
     },
 }
 
-/// What a [`Source`] makes of one message it took.
-type Deliver<M, F, C> = Box<dyn Fn(M, &MessageInfo) -> Incoming<F, C>>;
+/// How a message reached a [`Source`]: over DDS, or by reference from a publisher of
+/// this process.
+enum Arrival<M> {
+    Dds(M, Gid, i64),
+    Shared(Arc<M>),
+}
 
-/// A subscription feeding the synchronizer: each message it takes becomes an
-/// [`Incoming`] through `deliver`.
+/// What a [`Source`] makes of one message it took.
+type Deliver<M, F, C> = Box<dyn Fn(Arrival<M>) -> Incoming<F, C>>;
+
+/// A subscription feeding the synchronizer, over DDS and in this process: each message
+/// it takes becomes an [`Incoming`] through `deliver`. What arrives over DDS from a
+/// publisher of this process is left out: it arrived by reference already.
 struct Source<M: 'static, F, C> {
     topic: String,
     subscription: Subscription<M>,
+    intra: RefCell<IntraSubscription<M>>,
     deliver: Deliver<M, F, C>,
 }
 
 /// The stream of what one [`Source`] delivers.
 trait Incomings<F, C> {
     fn incoming(&self) -> LocalBoxStream<'_, Incoming<F, C>>;
+
+    /// Messages of this process lost because the node's in-process queue was full.
+    fn dropped_in_process(&self) -> u64;
 }
 
 impl<M, F, C> Incomings<F, C> for Source<M, F, C>
 where
-    M: DeserializeOwned + 'static,
+    M: DeserializeOwned + Send + Sync + 'static,
 {
     fn incoming(&self) -> LocalBoxStream<'_, Incoming<F, C>> {
-        self.subscription
-            .async_stream()
-            .map(move |message| match message {
-                Ok((message, info)) => (self.deliver)(message, &info),
-                Err(e) => Incoming::Undecodable {
+        let dds = self.subscription.async_stream().filter_map(move |message| {
+            futures::future::ready(match message {
+                Ok((message, info)) => {
+                    let writer = info.publisher_gid();
+                    (!is_in_process_writer(&self.topic, &writer)).then(|| {
+                        (self.deliver)(Arrival::Dds(message, writer, info.sequence_number()))
+                    })
+                }
+                Err(e) => Some(Incoming::Undecodable {
                     topic: self.topic.clone(),
                     error: e.to_string(),
-                },
+                }),
             })
-            .boxed_local()
+        });
+        match self.intra.borrow_mut().take_receiver() {
+            Some(shared) => futures::stream::select(
+                dds,
+                shared.map(move |message| (self.deliver)(Arrival::Shared(message))),
+            )
+            .boxed_local(),
+            None => dds.boxed_local(),
+        }
+    }
+
+    fn dropped_in_process(&self) -> u64 {
+        self.intra.borrow().dropped()
     }
 }
 
@@ -103,19 +137,28 @@ impl<F: 'static, C: 'static> Inputs<F, C> {
     }
 
     /// Subscribes stream `topic` (resolved for `node`): its frames are matched with the
-    /// other streams' by stamp. Streams are numbered in the order they are added.
+    /// other streams' by stamp. Streams are numbered in the order they are added. A
+    /// frame published in this process arrives as the publisher's own `Arc`.
     pub fn stream<M>(mut self, node: &mut RosNode, topic: &str, qos: QosProfile) -> Result<Self>
     where
-        M: RosMessage + Stamped + Into<F> + DeserializeOwned + 'static,
+        M: RosMessage + Stamped + Into<F> + DeserializeOwned + Send + Sync + 'static,
+        Arc<M>: Into<F>,
     {
         let stream = self.streams;
         self.streams += 1;
-        self.add(node, topic, qos, move |message: M, info| Incoming::Frame {
-            stream,
-            stamp: message.stamp(),
-            frame: message.into(),
-            publisher: info.publisher_gid(),
-            sequence: info.sequence_number(),
+        self.add(node, topic, qos, move |arrival: Arrival<M>| match arrival {
+            Arrival::Dds(message, writer, sequence) => Incoming::Frame {
+                stream,
+                stamp: message.stamp(),
+                frame: message.into(),
+                origin: Some((writer, sequence)),
+            },
+            Arrival::Shared(message) => Incoming::Frame {
+                stream,
+                stamp: message.stamp(),
+                frame: message.into(),
+                origin: None,
+            },
         })
     }
 
@@ -124,14 +167,20 @@ impl<F: 'static, C: 'static> Inputs<F, C> {
     /// the order they are added.
     pub fn latched<M>(mut self, node: &mut RosNode, topic: &str, qos: QosProfile) -> Result<Self>
     where
-        M: RosMessage + Stamped + Into<C> + DeserializeOwned + 'static,
+        M: RosMessage + Stamped + Into<C> + Clone + DeserializeOwned + Send + Sync + 'static,
     {
         let input = self.latched;
         self.latched += 1;
-        self.add(node, topic, qos, move |message: M, _| Incoming::Latched {
-            input,
-            stamp: message.stamp(),
-            item: message.into(),
+        self.add(node, topic, qos, move |arrival: Arrival<M>| {
+            let message = match arrival {
+                Arrival::Dds(message, _, _) => message,
+                Arrival::Shared(message) => (*message).clone(),
+            };
+            Incoming::Latched {
+                input,
+                stamp: message.stamp(),
+                item: message.into(),
+            }
         })
     }
 
@@ -140,15 +189,22 @@ impl<F: 'static, C: 'static> Inputs<F, C> {
         node: &mut RosNode,
         topic: &str,
         qos: QosProfile,
-        deliver: impl Fn(M, &MessageInfo) -> Incoming<F, C> + 'static,
+        deliver: impl Fn(Arrival<M>) -> Incoming<F, C> + 'static,
     ) -> Result<Self>
     where
-        M: RosMessage + DeserializeOwned + 'static,
+        M: RosMessage + DeserializeOwned + Send + Sync + 'static,
     {
+        let depth = match qos.history {
+            History::KeepLast { depth } => depth,
+            History::KeepAll => DEFAULT_IN_PROCESS_DEPTH,
+        };
         let subscription = node.subscribe::<M>(topic, qos)?;
+        let resolved = node.resolve_topic(topic)?;
+        let intra = IntraSubscription::new(&resolved, subscription.guid(), depth.max(1));
         self.sources.push(Box::new(Source {
-            topic: node.resolve_topic(topic)?,
+            topic: resolved,
             subscription,
+            intra: RefCell::new(intra),
             deliver: Box::new(deliver),
         }));
         Ok(self)
@@ -187,8 +243,9 @@ impl FrameStats {
         self.inexact.load(Ordering::Relaxed)
     }
 
-    /// Stream messages lost before they reached the node (gaps in their publishers'
-    /// sequence numbers).
+    /// Stream messages lost before they reached the node: gaps in their DDS publishers'
+    /// sequence numbers, and messages of this process dropped while the node's
+    /// in-process queue was full.
     pub fn lost(&self) -> u64 {
         self.lost.load(Ordering::Relaxed)
     }
@@ -292,15 +349,15 @@ where
                     stream,
                     stamp,
                     frame,
-                    publisher,
-                    sequence,
+                    origin,
                 } => {
-                    if gaps.record(publisher, sequence) > 0 {
-                        stats.lost.store(gaps.missed(), Ordering::Relaxed);
-                        throttle.warn(format!(
-                            "{} message(s) lost before reception so far",
-                            gaps.missed()
-                        ));
+                    let gap = origin.map_or(0, |(writer, sequence)| gaps.record(writer, sequence));
+                    let in_process: u64 =
+                        inputs.sources.iter().map(|s| s.dropped_in_process()).sum();
+                    let lost = gaps.missed() + in_process;
+                    if gap > 0 || lost > stats.lost() {
+                        stats.lost.store(lost, Ordering::Relaxed);
+                        throttle.warn(format!("{lost} message(s) lost before reception so far"));
                     }
                     sync.push_stream(stream, stamp, frame)
                 }
