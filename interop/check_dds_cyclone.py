@@ -81,8 +81,9 @@ def main():
         stderr = stop_node(node, "rectify_node")
     if node.returncode != 0:
         fail(f"rectify_node exited with {node.returncode}:\n{stderr}")
-    summary = re.search(r"(\d+) frame\(s\) received, (\d+) published, (\d+) dropped", stderr)
-    if not summary or summary[1] != summary[2] or summary[3] != "0":
+    summary = re.search(
+        r"(\d+) frame\(s\) received, (\d+) published \((\d+) over DDS\), (\d+) dropped", stderr)
+    if not summary or summary[1] != summary[2] or summary[4] != "0":
         fail(f"rectify_node did not publish every frame it received:\n{stderr}")
     print(f"OK: Cyclone DDS exchanged {FRAMES} frames with rectify_node; clean SIGTERM exit")
 

@@ -172,7 +172,8 @@ struct NodeCounts {
 
 impl NodeCounts {
     /// Reads the node's shutdown summary ("shutting down: R frame(s) received, P
-    /// published, D dropped while the rectify thread was busy, L lost before reception").
+    /// published (O over DDS), D dropped while the rectify thread was busy, L lost
+    /// before reception").
     fn from_log(log: &str) -> Option<Self> {
         let summary = log.rsplit("shutting down: ").next()?;
         let count = |label: &str| -> Option<u64> {
@@ -643,7 +644,8 @@ mod tests {
     #[test]
     fn node_summary_is_read_from_its_log() {
         let log = "[INFO] started\n[INFO] [cam.rectify_node]: shutting down: 330 frame(s) \
-                   received, 328 published, 2 dropped while the rectify thread was busy, 4 \
+                   received, 328 published (328 over DDS), 2 dropped while the rectify thread \
+                   was busy, 4 \
                    lost before reception, 0 without a partner, 0 with a camera_info of \
                    another stamp\n";
         assert_eq!(
