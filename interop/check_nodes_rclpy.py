@@ -294,14 +294,20 @@ def rect_difference(msg, raw, interpolation):
     return int(np.abs(image.astype(int) - opencv_rectified(raw, interpolation).astype(int)).max())
 
 
+def discovered(checks, peer, label, name, namespace):
+    """The check "discovery": node `namespace`/`name` appears in the ROS graph. Whether
+    it did."""
+    with checks.check(label, "discovery: name and namespace in the graph"):
+        peer.wait_until(lambda: (name, namespace) in peer.node_names(),
+                        f"{namespace.rstrip('/')}/{name} in get_node_names_and_namespaces()")
+    return checks.passed(label, "discovery: name and namespace in the graph")
+
+
 def check_rectify(checks, peer, rosout, binary):
     r = Rectify(peer, binary)
     label = r.label
     try:
-        with checks.check(label, "discovery: name and namespace in the graph"):
-            peer.wait_until(lambda: (r.name, r.namespace) in peer.node_names(),
-                            f"{r.fqn} in get_node_names_and_namespaces()")
-        if not checks.passed(label, "discovery: name and namespace in the graph"):
+        if not discovered(checks, peer, label, r.name, r.namespace):
             return checks.skip(label, "the other checks", "the node was not discovered")
 
         with checks.check(label, "graph: topics, services and their types"):
@@ -545,10 +551,7 @@ def check_calibrate(checks, peer, rosout, binary, stereocal):
 
 def calibrate_checks(checks, peer, rosout, c, pairs, truth, size):
     label, fqn = c.label, c.fqn
-    with checks.check(label, "discovery: name and namespace in the graph"):
-        peer.wait_until(lambda: (c.name, c.namespace) in peer.node_names(),
-                        f"{fqn} in get_node_names_and_namespaces()")
-    if not checks.passed(label, "discovery: name and namespace in the graph"):
+    if not discovered(checks, peer, label, c.name, c.namespace):
         return checks.skip(label, "the other checks", "the node was not discovered")
 
     with checks.check(label, "graph: topics, services, clients and their types"):

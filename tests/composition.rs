@@ -16,9 +16,10 @@ use stereocal::rectify::stage::{Rectified, Rectifier};
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 use stereocal_rosbag::{BagReader, TopicFilter};
 use stereocal_runtime::qos;
-use stereocal_runtime::testing::{DomainLease, NodeProcess, PeerNode};
-use stereocal_runtime::transport::TransportConfig;
+use stereocal_runtime::testing::{DomainLease, NodeProcess};
 use stereocal_vision::rectify::{Interpolation, RemapOptions};
+
+use crate::common;
 
 const SIDES: [&str; 2] = ["left", "right"];
 
@@ -62,13 +63,7 @@ fn the_composed_stereo_pair_rectifies_both_sides_in_one_process() {
         .args(["--ros-args", "--params-file"])
         .arg(params.path());
     let process = NodeProcess::spawn(command, domain.id()).expect("composition starts");
-    let mut peer = PeerNode::new(
-        &TransportConfig::rustdds_defaults(),
-        domain.id(),
-        "/test",
-        "composition",
-    )
-    .expect("test node");
+    let mut peer = common::test_node(&domain, "composition");
     let mut sides = Vec::new();
     for side in SIDES {
         let (image, info) = first_frame(side);
@@ -184,13 +179,7 @@ fn a_rectified_frame_reaches_a_node_of_the_same_process_without_dds() {
     let mut command = Command::new(env!("CARGO_BIN_EXE_stereocal"));
     command.args(["node", "compose"]).arg(&composition);
     let process = NodeProcess::spawn(command, domain.id()).expect("composition starts");
-    let mut peer = PeerNode::new(
-        &TransportConfig::rustdds_defaults(),
-        domain.id(),
-        "/test",
-        "in_process",
-    )
-    .expect("test node");
+    let mut peer = common::test_node(&domain, "in_process");
     let (image, info) = first_frame("left");
     let images = peer
         .publisher::<Image>("/stereo/left/image_raw", qos::reliable(5))

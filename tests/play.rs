@@ -17,8 +17,9 @@ use stereocal_msgs::rosgraph_msgs::Clock;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 use stereocal_rosbag::{BagReader, TopicFilter};
 use stereocal_runtime::qos;
-use stereocal_runtime::testing::{DomainLease, NodeProcess, PeerNode};
-use stereocal_runtime::transport::TransportConfig;
+use stereocal_runtime::testing::{DomainLease, NodeProcess};
+
+use crate::common;
 
 /// Whether `received` holds `pass` as a contiguous run.
 fn holds_pass<T: PartialEq>(received: &[T], pass: &[T]) -> bool {
@@ -45,13 +46,7 @@ fn a_bag_is_played_as_recorded_with_its_clock() {
     }
 
     let domain = DomainLease::for_test().expect("a ROS domain");
-    let mut peer = PeerNode::new(
-        &TransportConfig::rustdds_defaults(),
-        domain.id(),
-        "/test",
-        "listener",
-    )
-    .expect("test node");
+    let mut peer = common::test_node(&domain, "listener");
     let image_sub = peer
         .subscription::<Image>(topics[0], qos::reliable(50))
         .expect("image subscription");

@@ -11,8 +11,9 @@ use stereocal_msgs::rcl_interfaces::srv::{
     ListParametersResponse,
 };
 use stereocal_runtime::service::{ServiceClient, call, create_client, wait_for_server};
-use stereocal_runtime::testing::{DomainLease, NodeProcess, PeerNode};
-use stereocal_runtime::transport::TransportConfig;
+use stereocal_runtime::testing::{DomainLease, NodeProcess};
+
+use crate::common;
 
 /// Runs the node with `params` (`name:=value`) and returns its exit status and the
 /// last line it printed on stderr.
@@ -139,13 +140,7 @@ fn every_parameter_is_described_in_one_response() {
     // RustDDS's default transport advertises every interface, so the node's replies
     // to this peer are fragmented at the datagram size of the host's network interface
     // (on a host with loopback alone they would fit one 64 KiB datagram).
-    let mut peer = PeerNode::new(
-        &TransportConfig::rustdds_defaults(),
-        domain.id(),
-        "/test",
-        "describe",
-    )
-    .expect("test node");
+    let mut peer = common::test_node(&domain, "describe");
     let list: ServiceClient<ListParametersRequest, ListParametersResponse> =
         create_client(peer.node_mut(), "/cam/calibrate_node/list_parameters").expect("client");
     let describe: ServiceClient<DescribeParametersRequest, DescribeParametersResponse> =

@@ -7,6 +7,8 @@ use nalgebra::{Isometry3, Matrix3};
 use stereocal::calibrate::stage::{CameraResult, StereoResult};
 use stereocal::cli::calibrate::CalibrateArgs;
 use stereocal::cli::synth::{SceneArg, SynthArgs, run_with_target};
+use stereocal_runtime::testing::{DomainLease, PeerNode};
+use stereocal_runtime::transport::TransportConfig;
 use stereocal_vision::board::Target;
 use stereocal_vision::camera::Intrinsics;
 use stereocal_vision::synth::GroundTruth;
@@ -106,4 +108,15 @@ pub fn assert_right_from_left_near_truth(stereo: &StereoResult, truth: &GroundTr
         offset < 0.3e-3,
         "right_from_left translation off by {offset} m"
     );
+}
+
+/// The test's own node `/test/<name>` on `domain`, with RustDDS's default transport.
+pub fn test_node(domain: &DomainLease, name: &str) -> PeerNode {
+    PeerNode::new(
+        &TransportConfig::rustdds_defaults(),
+        domain.id(),
+        "/test",
+        name,
+    )
+    .expect("test node")
 }

@@ -25,9 +25,10 @@ use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_runtime::qos;
 use stereocal_runtime::service::{self, ServiceClient};
-use stereocal_runtime::testing::{DomainLease, NodeProcess, PeerNode, block_on_timeout};
-use stereocal_runtime::transport::TransportConfig;
+use stereocal_runtime::testing::{DomainLease, NodeProcess, block_on_timeout};
 use stereocal_vision::rectify::RemapOptions;
+
+use crate::common;
 
 const WIDTH: u32 = 320;
 const HEIGHT: u32 = 240;
@@ -40,17 +41,6 @@ fn start_node(domain: &DomainLease, extra: &[&str]) -> NodeProcess {
         .args(["--ros-args", "-r", "__ns:=/cam", "-r", "image:=image_raw"])
         .args(extra);
     NodeProcess::spawn(command, domain.id()).expect("rectify_node starts")
-}
-
-/// This test's own node on `domain`, with RustDDS's default transport.
-fn test_node(domain: &DomainLease, name: &str) -> PeerNode {
-    PeerNode::new(
-        &TransportConfig::rustdds_defaults(),
-        domain.id(),
-        "/test",
-        name,
-    )
-    .expect("test node")
 }
 
 fn camera_info(stamp: Time) -> CameraInfo {
@@ -104,7 +94,7 @@ fn image(stamp: Time, rgb: bool, seed: u32) -> Image {
 fn rectifies_every_frame_like_the_stage_and_stops_on_sigterm() {
     let domain = DomainLease::for_test().expect("a ROS domain");
     let process = start_node(&domain, &["-p", "interpolation:=1"]);
-    let mut peer = test_node(&domain, "frames");
+    let mut peer = common::test_node(&domain, "frames");
     let rosout_topic = peer.context().get_rosout_topic();
     let rosout = peer
         .node_mut()
@@ -294,7 +284,7 @@ fn parameters_are_served_described_and_checked() {
     .expect("write params file");
     let path = params_file.path().to_string_lossy().into_owned();
     let process = start_node(&domain, &["--params-file", &path]);
-    let mut peer = test_node(&domain, "params");
+    let mut peer = common::test_node(&domain, "params");
     let events = peer
         .subscription::<ParameterEvent>("/parameter_events", qos::reliable(100))
         .expect("parameter events subscription");
@@ -415,7 +405,7 @@ fn parameters_are_served_described_and_checked() {
 fn with_sim_time_parameter_events_carry_clock_time() {
     let domain = DomainLease::for_test().expect("a ROS domain");
     let process = start_node(&domain, &["-p", "use_sim_time:=true"]);
-    let mut peer = test_node(&domain, "sim_time");
+    let mut peer = common::test_node(&domain, "sim_time");
     let clock = peer
         .publisher::<Clock>("/clock", qos::reliable(1))
         .expect("clock publisher");
