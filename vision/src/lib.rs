@@ -7,5 +7,6 @@ pub mod board;
 pub mod calib;
 pub mod camera;
 pub mod image;
+pub mod pnp;
 pub mod rectify;
 pub mod synth;

@@ -1,0 +1,1 @@
+//! EPnP (Lepetit, Moreno-Noguer and Fua 2009).

@@ -1,0 +1,1 @@
+//! IPPE, infinitesimal plane-based pose estimation (Collins and Bartoli 2014).

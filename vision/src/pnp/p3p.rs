@@ -1,0 +1,1 @@
+//! Lambda Twist P3P (Persson and Nordberg 2018).

@@ -1,0 +1,1 @@
+//! RANSAC around a minimal pose solver, for correspondences with outliers.
