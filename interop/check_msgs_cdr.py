@@ -128,6 +128,11 @@ def descriptors():
     ]
 
 
+def pose_with_covariance():
+    covariance = np.arange(36, dtype=np.float64) * 0.25 - 3.0
+    return T['geometry_msgs/msg/PoseWithCovariance'](pose=pose(), covariance=covariance)
+
+
 def transform_stamped(child):
     return T['geometry_msgs/msg/TransformStamped'](header=header('base'), child_frame_id=child, transform=transform())
 
@@ -147,6 +152,10 @@ SAMPLES = {
     'geometry_msgs__msg__Pose': ('geometry_msgs/msg/Pose', pose()),
     'geometry_msgs__msg__PoseStamped': ('geometry_msgs/msg/PoseStamped',
                                         T['geometry_msgs/msg/PoseStamped'](header=header('base'), pose=pose())),
+    'geometry_msgs__msg__PoseWithCovariance': ('geometry_msgs/msg/PoseWithCovariance', pose_with_covariance()),
+    'geometry_msgs__msg__PoseWithCovarianceStamped': ('geometry_msgs/msg/PoseWithCovarianceStamped',
+                                                      T['geometry_msgs/msg/PoseWithCovarianceStamped'](
+                                                          header=header('camera'), pose=pose_with_covariance())),
     'geometry_msgs__msg__Transform': ('geometry_msgs/msg/Transform', transform()),
     'geometry_msgs__msg__TransformStamped': ('geometry_msgs/msg/TransformStamped', transform_stamped('tool0')),
     'tf2_msgs__msg__TFMessage': ('tf2_msgs/msg/TFMessage', T['tf2_msgs/msg/TFMessage'](

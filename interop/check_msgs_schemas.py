@@ -30,6 +30,8 @@ TYPES = [
     'geometry_msgs/msg/Quaternion',
     'geometry_msgs/msg/Pose',
     'geometry_msgs/msg/PoseStamped',
+    'geometry_msgs/msg/PoseWithCovariance',
+    'geometry_msgs/msg/PoseWithCovarianceStamped',
     'geometry_msgs/msg/Transform',
     'geometry_msgs/msg/TransformStamped',
     'tf2_msgs/msg/TFMessage',

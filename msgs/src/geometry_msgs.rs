@@ -1,6 +1,7 @@
 //! `geometry_msgs` messages. Units are metres; rotations are unit quaternions.
 
 use serde::{Deserialize, Serialize};
+use serde_big_array::BigArray;
 
 use crate::ros_message::ros_message;
 use crate::std_msgs::Header;
@@ -102,6 +103,51 @@ ros_message!(
     "std_msgs/Header header\ngeometry_msgs/Pose pose\n",
     Header,
     Pose
+);
+
+/// `geometry_msgs/msg/PoseWithCovariance`: a pose with the covariance of its error.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PoseWithCovariance {
+    /// The pose.
+    pub pose: Pose,
+    /// Row-major 6x6 covariance of `(x, y, z, rotation about X, rotation about Y,
+    /// rotation about Z)`, the rotations about the frame's fixed axes (metres, radians).
+    #[serde(with = "BigArray")]
+    pub covariance: [f64; 36],
+}
+
+impl Default for PoseWithCovariance {
+    fn default() -> Self {
+        Self {
+            pose: Pose::default(),
+            covariance: [0.0; 36],
+        }
+    }
+}
+
+ros_message!(
+    PoseWithCovariance,
+    "geometry_msgs/msg/PoseWithCovariance",
+    "geometry_msgs/Pose pose\nfloat64[36] covariance\n",
+    Pose
+);
+
+/// `geometry_msgs/msg/PoseWithCovarianceStamped`: a pose with covariance in
+/// `header.frame_id` at `header.stamp`.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct PoseWithCovarianceStamped {
+    /// Time and the frame the pose is expressed in.
+    pub header: Header,
+    /// The pose and its covariance.
+    pub pose: PoseWithCovariance,
+}
+
+ros_message!(
+    PoseWithCovarianceStamped,
+    "geometry_msgs/msg/PoseWithCovarianceStamped",
+    "std_msgs/Header header\ngeometry_msgs/PoseWithCovariance pose\n",
+    Header,
+    PoseWithCovariance
 );
 
 /// `geometry_msgs/msg/Transform`: `parent_from_child` as translation and rotation.

@@ -7,7 +7,8 @@ use serde::de::DeserializeOwned;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::cdr::{self, CdrError};
 use stereocal_msgs::geometry_msgs::{
-    Point, Pose, PoseStamped, Quaternion, Transform, TransformStamped, Vector3,
+    Point, Pose, PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped, Quaternion, Transform,
+    TransformStamped, Vector3,
 };
 use stereocal_msgs::rcl_interfaces::srv::{
     DescribeParametersResponse, GetParameterTypesResponse, GetParametersRequest,
@@ -131,6 +132,13 @@ fn transform() -> Transform {
     }
 }
 
+fn pose_with_covariance() -> PoseWithCovariance {
+    PoseWithCovariance {
+        pose: pose(),
+        covariance: std::array::from_fn(|i| i as f64 * 0.25 - 3.0),
+    }
+}
+
 fn transform_stamped(child: &str) -> TransformStamped {
     TransformStamped {
         header: header("base"),
@@ -215,6 +223,17 @@ fn geometry_msgs_match_rosbags() {
             pose: pose(),
         },
         fixture!("geometry_msgs__msg__PoseStamped"),
+    );
+    check(
+        pose_with_covariance(),
+        fixture!("geometry_msgs__msg__PoseWithCovariance"),
+    );
+    check(
+        PoseWithCovarianceStamped {
+            header: header("camera"),
+            pose: pose_with_covariance(),
+        },
+        fixture!("geometry_msgs__msg__PoseWithCovarianceStamped"),
     );
     check(transform(), fixture!("geometry_msgs__msg__Transform"));
     check(

@@ -4,7 +4,8 @@
 use stereocal_msgs::RosMessage;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::geometry_msgs::{
-    Point, Pose, PoseStamped, Quaternion, Transform, TransformStamped, Vector3,
+    Point, Pose, PoseStamped, PoseWithCovariance, PoseWithCovarianceStamped, Quaternion, Transform,
+    TransformStamped, Vector3,
 };
 use stereocal_msgs::rcl_interfaces::{
     ListParametersResult, Parameter, ParameterDescriptor, ParameterEvent, ParameterValue,
@@ -44,6 +45,11 @@ fn message_schemas_match_rosbags() {
     check_schema!(Quaternion, "geometry_msgs__msg__Quaternion");
     check_schema!(Pose, "geometry_msgs__msg__Pose");
     check_schema!(PoseStamped, "geometry_msgs__msg__PoseStamped");
+    check_schema!(PoseWithCovariance, "geometry_msgs__msg__PoseWithCovariance");
+    check_schema!(
+        PoseWithCovarianceStamped,
+        "geometry_msgs__msg__PoseWithCovarianceStamped"
+    );
     check_schema!(Transform, "geometry_msgs__msg__Transform");
     check_schema!(TransformStamped, "geometry_msgs__msg__TransformStamped");
     check_schema!(TFMessage, "tf2_msgs__msg__TFMessage");
