@@ -11,5 +11,6 @@ pub mod calibrate;
 pub mod cli;
 pub mod composition;
 pub mod convert;
+pub mod draw;
 pub mod rectify;
 pub mod tools;

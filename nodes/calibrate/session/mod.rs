@@ -6,7 +6,6 @@
 //! drives it; tests drive it directly.
 
 mod annotate;
-mod font;
 mod store;
 
 use std::path::{Path, PathBuf};
