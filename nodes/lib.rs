@@ -13,4 +13,5 @@ pub mod composition;
 pub mod convert;
 pub mod draw;
 pub mod rectify;
+pub mod target_params;
 pub mod tools;

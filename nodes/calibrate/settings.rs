@@ -10,11 +10,11 @@ use ros2_client::ParameterValue;
 use stereocal_runtime::camera_info_url::{camera_info_path, ros_home};
 use stereocal_runtime::node::{NodeBuilder, RosNode};
 use stereocal_runtime::params::ParamSpec;
-use stereocal_vision::board::{Target, TargetPart, parse_size, target_from_parts};
 use stereocal_vision::calib::quality::DEFAULT_MAX_BLUR;
 use stereocal_vision::camera::DistortionModel;
 
 use super::session::SessionConfig;
+use crate::target_params::{declare_target, target_from_params};
 
 /// Everything the node was configured with, checked.
 #[derive(Clone, Debug, PartialEq)]
@@ -35,8 +35,6 @@ pub struct CalibrateSettings {
     pub camera_info_paths: Vec<PathBuf>,
 }
 
-/// Largest accepted target square or marker side, metres.
-const MAX_SQUARE: f64 = 10.0;
 /// Largest accepted stereo pairing slop, seconds.
 const MAX_SLOP: f64 = 10.0;
 /// Largest accepted board speed limit, pixels per second.
@@ -57,15 +55,6 @@ pub fn declare(builder: NodeBuilder) -> NodeBuilder {
         ParamSpec::new(name, ParameterValue::Boolean(default), description)
     };
     [
-        string("pattern", "chessboard", "calibration target").one_of(&["chessboard", "charuco"]),
-        string(
-            "size",
-            "",
-            "target size COLSxROWS: a chessboard's inner corners, a ChArUco board's squares (required)",
-        ),
-        double("square", 0.0, MAX_SQUARE, "side of one square, metres (required)"),
-        double("marker_size", 0.0, MAX_SQUARE, "ChArUco marker side, metres"),
-        string("dictionary", "4x4_50", "ChArUco marker dictionary, e.g. 4x4_50, 5x5_100"),
         string("model", "plumb_bob", "distortion model").one_of(&[
             "plumb_bob",
             "rational_polynomial",
@@ -110,39 +99,11 @@ pub fn declare(builder: NodeBuilder) -> NodeBuilder {
         .integer_range(1..=1000),
     ]
     .into_iter()
-    .fold(builder, NodeBuilder::param)
+    .fold(declare_target(builder), NodeBuilder::param)
 }
 
 fn param_error(name: &str, reason: impl std::fmt::Display) -> anyhow::Error {
     anyhow!("parameter {name}: {reason}")
-}
-
-fn target_from_params(node: &RosNode) -> anyhow::Result<Target> {
-    let size = node.param_string("size")?;
-    if size.trim().is_empty() {
-        return Err(param_error(
-            "size",
-            "required: the target size as COLSxROWS, e.g. 9x6",
-        ));
-    }
-    let size = parse_size(&size).map_err(|e| param_error("size", e))?;
-    target_from_parts(
-        &node.param_string("pattern")?,
-        size,
-        node.param_f64("square")?,
-        Some(node.param_f64("marker_size")?),
-        Some(&node.param_string("dictionary")?),
-    )
-    .map_err(|(part, e)| {
-        let name = match part {
-            TargetPart::Pattern => "pattern",
-            TargetPart::Size => "size",
-            TargetPart::Square => "square",
-            TargetPart::MarkerSize => "marker_size",
-            TargetPart::Dictionary => "dictionary",
-        };
-        param_error(name, e)
-    })
 }
 
 /// Reads and checks the node's parameters; an error names the parameter.
