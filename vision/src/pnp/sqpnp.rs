@@ -1,1 +1,1419 @@
 //! SQPnP (Terzakis and Lourakis 2020): globally optimal PnP for 3 or more points.
+//!
+//! From "A Consistently Fast and Globally Optimal Solution to the Perspective-n-Point
+//! Problem" (ECCV 2020). Write the rotation `R` of `camera_from_target` as the 9-vector
+//! `r` of its rows, so that `R M = A(M) r` with `A(M) = diag(M^T, M^T, M^T)`. For a
+//! normalized image point `m = (x, y)` let `B(m) = [1 0 -x; 0 1 -y]` and
+//! `Q(m) = B^T B`. The objective is
+//!
+//! `E(R, t) = sum_i || B(m_i) (R M_i + t) ||^2`,
+//!
+//! the squared distance on the `z = 1` plane between each observation and the
+//! projection of its point, weighted by the point's squared depth. For a given `r` the
+//! best translation is linear in it, `t = P r` with
+//! `P = -(sum Q_i)^-1 sum Q_i A_i`, and then `E = r^T Omega r` with
+//! `Omega = sum A_i^T Q_i A_i + (sum Q_i A_i)^T P`, a positive semi-definite 9x9
+//! matrix. SQPnP minimizes `r^T Omega r` over rotations by sequential quadratic
+//! programming (SQP) on the orthogonality constraints, started from the rotations
+//! nearest to the eigenvectors of `Omega` spanning its null space (or of its least
+//! eigenvalue), both signs; further eigenvectors are tried while the best error found
+//! exceeds three times their eigenvalue. A planar target makes `Omega` rank deficient
+//! (its null space holds every `r` that only changes the rotation's normal column):
+//! every null vector is a start.
+//!
+//! Where this implementation goes beyond the paper, each for a failure seen on random
+//! problems:
+//! - the target points are centred on their centroid and scaled to unit RMS radius
+//!   before `Omega` is built, so its conditioning and the rank test do not depend on
+//!   the target frame's origin or units;
+//! - `Omega` is decomposed by the symmetric eigensolver (nalgebra's SVD returned
+//!   inaccurate null vectors for some);
+//! - each SQP iterate is projected to the nearest rotation (SVD) and a step that would
+//!   raise the objective is retried with Levenberg-Marquardt damping; near a minimum
+//!   the step uses the Hessian of the Lagrangian rather than `Omega` alone: with
+//!   noisy, weakly constraining points the paper's iteration can cycle or diverge;
+//! - a minimum with every point behind the camera is also restarted from its planar
+//!   twin (half a turn about the target's thinnest direction), which for a planar
+//!   target explains the image equally well with every point in front;
+//! - with 3 points, where up to four exact poses are all global minima, SQP also
+//!   starts from sums and differences of pairs and triples of null vectors, so that
+//!   close-together exact poses are not missed (about 1 in 1000 random triples still
+//!   loses one; the p3p module finds them all in closed form).
+
+use nalgebra::{
+    DMatrix, Isometry3, Matrix2x3, Matrix3, Matrix6, Point2, Point3, Rotation3, SMatrix, SVector,
+    Translation3, UnitQuaternion, Vector3, Vector6,
+};
+
+use super::PnpError;
+
+type Vector9 = SVector<f64, 9>;
+type Matrix9 = SMatrix<f64, 9, 9>;
+type Matrix3x9 = SMatrix<f64, 3, 9>;
+type Matrix9x3 = SMatrix<f64, 9, 3>;
+type Matrix9x6 = SMatrix<f64, 9, 6>;
+
+/// Fewest correspondences SQPnP accepts.
+const MIN_POINTS: usize = 3;
+/// Eigenvalues of `Omega` below this fraction of the largest count as zero (rounding
+/// leaves about 1e-15): their eigenvectors span the null space, all of which are used
+/// as starting points.
+const RANK_TOLERANCE: f64 = 1e-10;
+/// Largest null space of `Omega` a pose can be found from: a rotation has 3 degrees of
+/// freedom, 9 entries and 6 constraints.
+const MAX_NULL_SPACE: usize = 6;
+/// `||E E^T - I||_F^2` below which a scaled null vector `E` is already a rotation (up to
+/// sign) and only needs polishing by SQP, from one sign.
+const ORTHOGONALITY_TOLERANCE: f64 = 1e-8;
+/// SQP has converged once a step's squared norm falls below this (the 9-vector of a
+/// rotation has norm sqrt(3)).
+const SQP_STEP_TOLERANCE: f64 = 1e-20;
+/// Squared step norm below which SQP has converged as far as rounding allows once steps
+/// stop shrinking (the reference implementation's only criterion).
+const SQP_LOOSE_TOLERANCE: f64 = 1e-10;
+/// SQP runs still moving after this many steps are abandoned (a handful is typical;
+/// nearly degenerate data needs tens).
+const SQP_MAX_ITERATIONS: usize = 100;
+/// Longest step along the constraints' null space, in 9-vector norm (about 0.7 rad of
+/// rotation): Newton steps from a nearly singular model are cut to this.
+const SQP_MAX_TANGENT_STEP: f64 = 1.0;
+/// First Levenberg-Marquardt damping of a refused step, relative to the largest
+/// eigenvalue of `Omega`; each further refusal multiplies it by ten.
+const SQP_INITIAL_DAMPING: f64 = 1e-9;
+/// Refused steps in a row after which the run is abandoned.
+const SQP_MAX_REFUSALS: usize = 30;
+/// Rise of `r^T Omega r` a step may cause, relative to the largest eigenvalue of
+/// `Omega`: rounding, so that converged iterations are not stopped by noise.
+const SQP_OBJECTIVE_SLACK: f64 = 1e-12;
+/// Two minima whose rotation matrices differ by less than this (squared Frobenius norm,
+/// about 1e-4 rad) are the same minimum.
+const SAME_ROTATION_TOLERANCE: f64 = 1e-8;
+/// Target points whose spread across their main axis is below this fraction of their
+/// spread along it lie on one line.
+const COLLINEARITY_TOLERANCE: f64 = 1e-6;
+/// Target points whose RMS distance to their centroid is below this fraction of the
+/// centroid's distance to the origin coincide (to rounding).
+const COINCIDENCE_TOLERANCE: f64 = 1e-10;
+/// Image points whose RMS distance to their mean is below this (normalized units, a
+/// thousandth of a pixel at a focal length of 1000 px) coincide.
+const IMAGE_SPREAD_TOLERANCE: f64 = 1e-6;
+/// Iteration cap of the SVD and eigen-decompositions.
+const DECOMPOSITION_MAX_ITERATIONS: usize = 1000;
+
+/// One local minimum SQPnP found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SqpnpSolution {
+    /// The pose, mapping target points (target frame, metres) to the camera frame (x
+    /// right, y down, z forward, metres). Every target point is in front of the camera.
+    pub camera_from_target: Isometry3<f64>,
+    /// SQPnP's objective at this pose, square metres:
+    /// `sum_i (X_i - x_i Z_i)^2 + (Y_i - y_i Z_i)^2` where `(X_i, Y_i, Z_i)` is target
+    /// point `i` in the camera frame and `(x_i, y_i)` its normalized image point. Each
+    /// term is the squared distance on the `z = 1` plane between the observation and
+    /// the projection `(X_i / Z_i, Y_i / Z_i)`, times `Z_i^2`: the paper's
+    /// `r^T Omega r`. It is zero for an exact fit.
+    pub squared_error: f64,
+}
+
+/// All minima found, best (least squared_error) first; target points in any
+/// configuration (planar or not), n >= 3.
+///
+/// `target_points` are in the target frame (metres); `normalized[i]` is the undistorted
+/// normalized image point `(X/Z, Y/Z)` of `target_points[i]` (see
+/// [`super::Correspondences`]). Each returned pose is a local minimum of the objective
+/// described at [`SqpnpSolution::squared_error`], with every point in front of the
+/// camera; the first is the least found, which SQPnP's search makes the global minimum
+/// of that objective. Duplicates are merged; with 3 points several exact poses may be
+/// returned.
+///
+/// Cost: a fraction of a millisecond for 4 or more points; about 10 ms for 3 points,
+/// which get many more SQP starts (see the module documentation).
+///
+/// Errors: [`PnpError::MismatchedLengths`], [`PnpError::TooFewPoints`] (fewer than 3),
+/// [`PnpError::NonFinite`], [`PnpError::Degenerate`] when the target points coincide or
+/// lie on one line, the image points coincide, or the points leave the pose undetermined
+/// (a target seen edge-on), [`PnpError::BehindCamera`] when every
+/// minimum found puts points behind the camera (counted for the best of them),
+/// [`PnpError::NoSolution`] on numerical failure.
+pub fn sqpnp(
+    target_points: &[Point3<f64>],
+    normalized: &[Point2<f64>],
+) -> Result<Vec<SqpnpSolution>, PnpError> {
+    check_input(target_points, normalized)?;
+    let frame = TargetFrame::fit(target_points)?;
+    let local: Vec<Point3<f64>> = target_points.iter().map(|p| frame.to_local(p)).collect();
+    let problem = Problem::new(&local, normalized)?;
+    let search = Search::run(&problem, &frame.thinnest)?;
+    let mut solutions: Vec<SqpnpSolution> = search
+        .minima
+        .iter()
+        .filter_map(|minimum| frame.solution(minimum, target_points, normalized))
+        .collect();
+    if solutions.is_empty() {
+        return Err(search.refusal(target_points.len()));
+    }
+    solutions.sort_by(|a, b| a.squared_error.total_cmp(&b.squared_error));
+    Ok(solutions)
+}
+
+/// Refuses inputs no pose can be computed from before any arithmetic.
+fn check_input(target_points: &[Point3<f64>], normalized: &[Point2<f64>]) -> Result<(), PnpError> {
+    if target_points.len() != normalized.len() {
+        return Err(PnpError::MismatchedLengths {
+            target_points: target_points.len(),
+            image_points: normalized.len(),
+        });
+    }
+    if target_points.len() < MIN_POINTS {
+        return Err(PnpError::TooFewPoints {
+            needed: MIN_POINTS,
+            got: target_points.len(),
+        });
+    }
+    if !target_points
+        .iter()
+        .all(|p| p.coords.iter().all(|v| v.is_finite()))
+    {
+        return Err(PnpError::NonFinite("target points"));
+    }
+    if !normalized
+        .iter()
+        .all(|p| p.coords.iter().all(|v| v.is_finite()))
+    {
+        return Err(PnpError::NonFinite("image points"));
+    }
+    Ok(())
+}
+
+/// The similarity that centres the target points on their centroid and scales them to
+/// unit RMS radius: `local = (target - centroid) / scale`.
+struct TargetFrame {
+    centroid: Vector3<f64>,
+    scale: f64,
+    /// Unit direction of least spread of the target points: a planar target's normal.
+    thinnest: Vector3<f64>,
+}
+
+impl TargetFrame {
+    /// Fits the frame, refusing coincident and collinear target points.
+    fn fit(points: &[Point3<f64>]) -> Result<Self, PnpError> {
+        let n = points.len() as f64;
+        let centroid = points.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n;
+        let scatter = points
+            .iter()
+            .map(|p| {
+                let d = p.coords - centroid;
+                d * d.transpose()
+            })
+            .sum::<Matrix3<f64>>()
+            / n;
+        let scale = scatter.trace().sqrt();
+        if !(centroid.iter().all(|v| v.is_finite()) && scale.is_finite()) {
+            return Err(PnpError::NoSolution(
+                "target coordinates too large to compute with".into(),
+            ));
+        }
+        if scale <= COINCIDENCE_TOLERANCE * centroid.norm() {
+            return Err(PnpError::Degenerate("all target points coincide".into()));
+        }
+        let eigen = (scatter / (scale * scale))
+            .try_symmetric_eigen(f64::EPSILON, DECOMPOSITION_MAX_ITERATIONS)
+            .ok_or_else(|| PnpError::NoSolution("target point spread not computed".into()))?;
+        let mut order = [0, 1, 2];
+        order.sort_by(|&i, &j| eigen.eigenvalues[j].total_cmp(&eigen.eigenvalues[i]));
+        let [along, across, _] = order.map(|i| eigen.eigenvalues[i]);
+        if across.max(0.0).sqrt() <= COLLINEARITY_TOLERANCE * along.sqrt() {
+            return Err(PnpError::Degenerate("all target points on one line".into()));
+        }
+        Ok(Self {
+            centroid,
+            scale,
+            thinnest: eigen.eigenvectors.column(order[2]).normalize(),
+        })
+    }
+
+    fn to_local(&self, point: &Point3<f64>) -> Point3<f64> {
+        Point3::from((point.coords - self.centroid) / self.scale)
+    }
+
+    /// The pose in the original target frame of a minimum found in the local frame, if
+    /// it is finite and puts every original point in front of the camera.
+    fn solution(
+        &self,
+        minimum: &Minimum,
+        target_points: &[Point3<f64>],
+        normalized: &[Point2<f64>],
+    ) -> Option<SqpnpSolution> {
+        let rotation = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
+            minimum.rotation,
+        ));
+        // camera point = scale * (R local + t_local) and local = (target - centroid) / scale.
+        let translation = minimum.translation * self.scale - rotation * self.centroid;
+        let camera_from_target = Isometry3::from_parts(Translation3::from(translation), rotation);
+        let mut squared_error = 0.0;
+        for (point, image) in target_points.iter().zip(normalized) {
+            let c = camera_from_target * point;
+            if !in_front(&c.coords) {
+                return None;
+            }
+            squared_error += point_error(&c.coords, image);
+        }
+        let finite = squared_error.is_finite()
+            && camera_from_target
+                .translation
+                .vector
+                .iter()
+                .all(|v| v.is_finite())
+            && camera_from_target
+                .rotation
+                .coords
+                .iter()
+                .all(|v| v.is_finite());
+        finite.then_some(SqpnpSolution {
+            camera_from_target,
+            squared_error,
+        })
+    }
+}
+
+/// Whether a point in the camera frame is in front of the camera (false for NaN).
+fn in_front(c: &Vector3<f64>) -> bool {
+    c.z > 0.0
+}
+
+/// The objective's term for one point: `||B(m) c||^2` for the point `c` in the camera
+/// frame and its normalized image point `m`.
+fn point_error(c: &Vector3<f64>, m: &Point2<f64>) -> f64 {
+    (c.x - m.x * c.z).powi(2) + (c.y - m.y * c.z).powi(2)
+}
+
+/// `A(M)`: the 3x9 matrix with `A(M) r = R M` for the row-major 9-vector `r` of `R`.
+fn lift(point: &Point3<f64>) -> Matrix3x9 {
+    let mut a = Matrix3x9::zeros();
+    for row in 0..3 {
+        for col in 0..3 {
+            a[(row, 3 * row + col)] = point[col];
+        }
+    }
+    a
+}
+
+/// `Q(m) = B(m)^T B(m)` with `B(m) = [1 0 -x; 0 1 -y]`.
+fn image_metric(m: &Point2<f64>) -> Matrix3<f64> {
+    let b = Matrix2x3::new(1.0, 0.0, -m.x, 0.0, 1.0, -m.y);
+    b.transpose() * b
+}
+
+/// The row-major 9-vector of a 3x3 matrix.
+fn to_vector(m: &Matrix3<f64>) -> Vector9 {
+    Vector9::from_iterator(m.transpose().iter().copied())
+}
+
+/// The 3x3 matrix of a row-major 9-vector.
+fn to_matrix(r: &Vector9) -> Matrix3<f64> {
+    Matrix3::from_row_slice(r.as_slice())
+}
+
+/// The quadratic problem in the local target frame: `Omega` and `P`.
+struct Problem<'a> {
+    points: &'a [Point3<f64>],
+    image: &'a [Point2<f64>],
+    omega: Matrix9,
+    p: Matrix3x9,
+}
+
+impl<'a> Problem<'a> {
+    fn new(points: &'a [Point3<f64>], image: &'a [Point2<f64>]) -> Result<Self, PnpError> {
+        check_image_spread(image)?;
+        let mut omega = Matrix9::zeros();
+        let mut qa_sum = Matrix3x9::zeros();
+        let mut q_sum = Matrix3::zeros();
+        for (point, m) in points.iter().zip(image) {
+            let a = lift(point);
+            let q = image_metric(m);
+            let qa = q * a;
+            omega += a.transpose() * qa;
+            qa_sum += qa;
+            q_sum += q;
+        }
+        let q_inverse = q_sum.cholesky().map(|c| c.inverse()).ok_or_else(|| {
+            PnpError::NoSolution("the image points' normal matrix is not invertible".into())
+        })?;
+        let p = -q_inverse * qa_sum;
+        omega += qa_sum.transpose() * p;
+        // Rounding leaves Omega slightly asymmetric; its eigenvectors must be orthogonal.
+        omega = (omega + omega.transpose()) * 0.5;
+        if !(omega.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite())) {
+            return Err(PnpError::NoSolution(
+                "image coordinates too large to compute with".into(),
+            ));
+        }
+        Ok(Self {
+            points,
+            image,
+            omega,
+            p,
+        })
+    }
+
+    /// Eigenvectors (columns) and eigenvalues of `Omega`, largest eigenvalue first.
+    fn eigen(&self) -> Result<(Matrix9, Vector9), PnpError> {
+        // The symmetric eigensolver: nalgebra's SVD of some such Omegas returns a last
+        // singular vector far less accurate than its singular value suggests.
+        let eigen = self
+            .omega
+            .try_symmetric_eigen(f64::EPSILON, DECOMPOSITION_MAX_ITERATIONS)
+            .ok_or_else(|| PnpError::NoSolution("decomposition of Omega failed".into()))?;
+        let mut order: [usize; 9] = std::array::from_fn(|i| i);
+        order.sort_by(|&a, &b| eigen.eigenvalues[b].total_cmp(&eigen.eigenvalues[a]));
+        let vectors = Matrix9::from_fn(|row, col| eigen.eigenvectors[(row, order[col])]);
+        let values = Vector9::from_fn(|i, _| eigen.eigenvalues[order[i]]);
+        Ok((vectors, values))
+    }
+
+    /// Translation, objective and points behind the camera of a rotation, local frame.
+    fn evaluate(&self, rotation: &Matrix3<f64>) -> Evaluation {
+        let translation = self.p * to_vector(rotation);
+        let mut error = 0.0;
+        let mut behind = 0;
+        for (point, m) in self.points.iter().zip(self.image) {
+            let c = rotation * point.coords + translation;
+            error += point_error(&c, m);
+            if !in_front(&c) {
+                behind += 1;
+            }
+        }
+        Evaluation {
+            translation,
+            error,
+            behind,
+        }
+    }
+}
+
+/// Refuses image points that all coincide: they leave the translation undetermined
+/// (the normal matrix `sum Q_i` is singular).
+fn check_image_spread(image: &[Point2<f64>]) -> Result<(), PnpError> {
+    let n = image.len() as f64;
+    let mean = image
+        .iter()
+        .map(|m| m.coords)
+        .sum::<nalgebra::Vector2<f64>>()
+        / n;
+    let variance = image
+        .iter()
+        .map(|m| (m.coords - mean).norm_squared())
+        .sum::<f64>()
+        / n;
+    // A NaN (overflow) passes on to the check of Omega.
+    if variance.sqrt() <= IMAGE_SPREAD_TOLERANCE {
+        return Err(PnpError::Degenerate("all image points coincide".into()));
+    }
+    Ok(())
+}
+
+/// A rotation's translation `P r`, objective and count of points behind the camera.
+struct Evaluation {
+    translation: Vector3<f64>,
+    error: f64,
+    behind: usize,
+}
+
+/// A minimum found by the search, in the local target frame.
+struct Minimum {
+    rotation: Matrix3<f64>,
+    translation: Vector3<f64>,
+    error: f64,
+}
+
+/// The SQP runs from the eigenvectors of `Omega` and what they found.
+struct Search<'p, 'a> {
+    problem: &'p Problem<'a>,
+    sqp: Sqp<'p>,
+    /// Least objective over the minima in front of the camera so far.
+    best_error: f64,
+    /// Distinct minima with every point in front of the camera.
+    minima: Vec<Minimum>,
+    /// Least objective, and its count of points behind the camera, over the finite
+    /// minima refused for cheirality.
+    best_refused: Option<(f64, usize)>,
+    /// Rotation by half a turn about the target's thinnest direction.
+    half_turn: Matrix3<f64>,
+}
+
+impl<'p, 'a> Search<'p, 'a> {
+    /// Searches the minima of `problem`, whose target points spread least along the
+    /// unit vector `thinnest`.
+    fn run(problem: &'p Problem<'a>, thinnest: &Vector3<f64>) -> Result<Self, PnpError> {
+        let (u, s) = problem.eigen()?;
+        let largest = s[0];
+        let null_dimension = s.iter().filter(|&&v| v <= RANK_TOLERANCE * largest).count();
+        if null_dimension > MAX_NULL_SPACE {
+            return Err(PnpError::Degenerate(format!(
+                "the image points do not determine a pose: Omega has a null space of \
+                 dimension {null_dimension}, at most {MAX_NULL_SPACE} allowed (a target \
+                 seen edge-on?)"
+            )));
+        }
+        let mut search = Self {
+            problem,
+            sqp: Sqp {
+                omega: &problem.omega,
+                scale: largest,
+            },
+            best_error: f64::INFINITY,
+            minima: Vec::new(),
+            best_refused: None,
+            half_turn: thinnest * thinnest.transpose() * 2.0 - Matrix3::identity(),
+        };
+        // Without a null space the eigenvector of the least eigenvalue stands in for it.
+        let first_null = 9 - null_dimension.max(1);
+        let null_vectors: Vec<Vector9> =
+            (first_null..9).map(|i| u.column(i) * 3f64.sqrt()).collect();
+        for e in &null_vectors {
+            search.start_from_null_vector(e);
+        }
+        if null_dimension == MAX_NULL_SPACE {
+            search.start_from_null_space_combinations(&null_vectors);
+        }
+        // A rotation's 9-vector has squared norm 3, so a minimum near the eigenvector of
+        // eigenvalue s costs at least about 3 s: further eigenvectors can only improve on
+        // the best error while it exceeds that.
+        for index in (1..first_null).rev() {
+            if search.best_error <= 3.0 * s[index] {
+                break;
+            }
+            search.start_from_eigenvector(&u.column(index).into_owned());
+        }
+        Ok(search)
+    }
+
+    /// A null vector scaled to the norm of a rotation's 9-vector: when it already is an
+    /// orthogonal matrix, its sign with positive determinant is (nearly) a minimum and
+    /// only needs polishing; otherwise SQP starts from both signs.
+    fn start_from_null_vector(&mut self, e: &Vector9) {
+        if orthogonality_error(e) < ORTHOGONALITY_TOLERANCE {
+            let m = to_matrix(e);
+            let proper = if m.determinant() < 0.0 { -m } else { m };
+            self.run_from(&proper);
+        } else {
+            self.start_from_eigenvector(e);
+        }
+    }
+
+    /// With three points every exact pose (up to four) is a global minimum, and the
+    /// null vectors alone may start SQP in the basins of only some of them when they lie
+    /// close together: SQP also starts from the sums and differences of every pair and
+    /// every triple of null vectors.
+    fn start_from_null_space_combinations(&mut self, null_vectors: &[Vector9]) {
+        for (a, first) in null_vectors.iter().enumerate() {
+            for (b, second) in null_vectors.iter().enumerate().skip(a + 1) {
+                for pair in [first + second, first - second] {
+                    self.start_from_eigenvector(&pair);
+                    for third in null_vectors.iter().skip(b + 1) {
+                        self.start_from_eigenvector(&(pair + third));
+                        self.start_from_eigenvector(&(pair - third));
+                    }
+                }
+            }
+        }
+    }
+
+    /// SQP from the rotations nearest to `e` and to `-e`.
+    fn start_from_eigenvector(&mut self, e: &Vector9) {
+        for start in [*e, -e] {
+            self.run_from(&to_matrix(&start));
+        }
+    }
+
+    /// SQP from the rotation nearest to `m`.
+    fn run_from(&mut self, m: &Matrix3<f64>) {
+        if let Some(end) = nearest_rotation(m).and_then(|start| self.sqp.run(&start)) {
+            self.consider(&end, true);
+        }
+    }
+
+    /// Keeps the rotation a run ended at as a minimum when it puts every point in
+    /// front of the camera.
+    ///
+    /// A planar target seen with every point behind the camera has a twin that explains
+    /// the image equally well with every point in front: the rotation composed with half
+    /// a turn about the target's normal maps each point `M` to `-R M`, and the
+    /// translation `P r` changes sign with it. SQP then also runs from that twin
+    /// (exact for a planar target, a nearby start for a nearly planar one).
+    fn consider(&mut self, rotation: &Matrix3<f64>, try_twin: bool) {
+        let rotation = *rotation;
+        let evaluation = self.problem.evaluate(&rotation);
+        if !(evaluation.error.is_finite() && evaluation.translation.iter().all(|v| v.is_finite())) {
+            return;
+        }
+        if evaluation.behind > 0 {
+            if self
+                .best_refused
+                .is_none_or(|(error, _)| evaluation.error < error)
+            {
+                self.best_refused = Some((evaluation.error, evaluation.behind));
+            }
+            if try_twin
+                && evaluation.behind == self.problem.points.len()
+                && let Some(end) = self.sqp.run(&(rotation * self.half_turn))
+            {
+                self.consider(&end, false);
+            }
+            return;
+        }
+        self.best_error = self.best_error.min(evaluation.error);
+        let minimum = Minimum {
+            rotation,
+            translation: evaluation.translation,
+            error: evaluation.error,
+        };
+        match self.minima.iter_mut().find(|known| {
+            (known.rotation - minimum.rotation).norm_squared() < SAME_ROTATION_TOLERANCE
+        }) {
+            Some(known) if minimum.error < known.error => *known = minimum,
+            Some(_) => {}
+            None => self.minima.push(minimum),
+        }
+    }
+
+    /// Why no pose is returned.
+    fn refusal(&self, total: usize) -> PnpError {
+        match self.best_refused {
+            Some((_, count)) => PnpError::BehindCamera { count, total },
+            None => PnpError::NoSolution("no SQP run ended at a finite rotation".into()),
+        }
+    }
+}
+
+/// `||E E^T - I||_F^2` for the 3x3 matrix `E` of `e`.
+fn orthogonality_error(e: &Vector9) -> f64 {
+    let m = to_matrix(e);
+    (m * m.transpose() - Matrix3::identity()).norm_squared()
+}
+
+/// The rotation nearest to `m` in the Frobenius norm: `U diag(1, 1, det(U V^T)) V^T`
+/// from the SVD `m = U S V^T`, which also turns a matrix with `det < 0` into a proper
+/// rotation.
+fn nearest_rotation(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    if !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    // The general SVD: nalgebra's special 3x3 SVD goes through m^T m and loses half
+    // the digits of nearly equal singular values.
+    let svd = DMatrix::from_column_slice(3, 3, m.as_slice()).try_svd(
+        true,
+        true,
+        f64::EPSILON,
+        DECOMPOSITION_MAX_ITERATIONS,
+    )?;
+    let u: Matrix3<f64> = svd.u?.fixed_view::<3, 3>(0, 0).into_owned();
+    let v_t: Matrix3<f64> = svd.v_t?.fixed_view::<3, 3>(0, 0).into_owned();
+    let mut sign = Matrix3::identity();
+    if (u * v_t).determinant() < 0.0 {
+        sign[(2, 2)] = -1.0;
+    }
+    let rotation = u * sign * v_t;
+    rotation.iter().all(|v| v.is_finite()).then_some(rotation)
+}
+
+/// The SQP iteration on `r^T Omega r` over rotations.
+struct Sqp<'o> {
+    omega: &'o Matrix9,
+    /// Largest eigenvalue of `Omega`: the scale of the objective and its Hessian.
+    scale: f64,
+}
+
+impl Sqp<'_> {
+    fn objective(&self, r: &Vector9) -> f64 {
+        r.dot(&(self.omega * r))
+    }
+
+    /// SQP from the rotation `start` until a step becomes negligible: the rotation it
+    /// converges to, or `None` when it does not converge within the iteration cap.
+    ///
+    /// Each iterate is brought back onto the rotations by the nearest rotation matrix,
+    /// and a step that would raise the objective there is refused and retried with
+    /// Levenberg-Marquardt damping: the objective never rises, so the iteration cannot
+    /// cycle or diverge. When only a damped step is accepted and it gains nothing
+    /// measurable, the iterate is a minimum as far as the objective can tell (a flat
+    /// valley of nearly degenerate data).
+    fn run(&self, start: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+        let mut r = to_vector(start);
+        let mut error = self.objective(&r);
+        let mut damping = 0.0;
+        let mut previous = f64::INFINITY;
+        for _ in 0..SQP_MAX_ITERATIONS {
+            let model = SqpModel::at(self.omega, &r)?;
+            let descent = self.descend(&r, &model, error, &mut damping)?;
+            let size = (descent.r - r).norm_squared();
+            let stalled = descent.damped && error - descent.error <= self.slack();
+            r = descent.r;
+            error = descent.error;
+            // Below the loose tolerance, steps that stop shrinking are rounding noise.
+            if size <= SQP_STEP_TOLERANCE
+                || (size <= SQP_LOOSE_TOLERANCE && size > 0.25 * previous)
+                || stalled
+            {
+                return Some(to_matrix(&r));
+            }
+            previous = size;
+        }
+        (previous <= SQP_LOOSE_TOLERANCE).then(|| to_matrix(&r))
+    }
+
+    fn slack(&self) -> f64 {
+        SQP_OBJECTIVE_SLACK * self.scale
+    }
+
+    /// The first step from `r`, damped more at each refusal, whose nearest rotation does
+    /// not raise the objective above `error` (up to rounding). `damping` carries over
+    /// between iterations: a tenth of it after an accepted step.
+    fn descend(
+        &self,
+        r: &Vector9,
+        model: &SqpModel,
+        error: f64,
+        damping: &mut f64,
+    ) -> Option<Descent> {
+        for _ in 0..SQP_MAX_REFUSALS {
+            let accepted = model.step(*damping).and_then(|step| {
+                let candidate = to_vector(&nearest_rotation(&to_matrix(&(r + step)))?);
+                let candidate_error = self.objective(&candidate);
+                (candidate_error <= error + self.slack()).then_some(Descent {
+                    r: candidate,
+                    error: candidate_error,
+                    damped: *damping > 0.0,
+                })
+            });
+            if let Some(descent) = accepted {
+                *damping = if *damping > 10.0 * SQP_INITIAL_DAMPING * self.scale {
+                    *damping / 10.0
+                } else {
+                    0.0
+                };
+                return Some(descent);
+            }
+            *damping = if *damping > 0.0 {
+                *damping * 10.0
+            } else {
+                SQP_INITIAL_DAMPING * self.scale
+            };
+        }
+        None
+    }
+}
+
+/// Where an accepted step of [`Sqp::descend`] lands.
+struct Descent {
+    /// The new iterate, a rotation.
+    r: Vector9,
+    /// The objective there.
+    error: f64,
+    /// Whether the step was damped.
+    damped: bool,
+}
+
+/// The quadratic model of one SQP step at `r` for `min r^T Omega r` subject to
+/// `R R^T = I`. The step solves the linearized constraints `J delta = g` and minimizes
+/// the model along their null space. It splits as `delta = H x + N y` with `H` an
+/// orthonormal basis of the row space of the constraint Jacobian `J` and `N` of its
+/// null space: `(J H) x = g` (lower triangular) and `W y = -N^T (Omega r + B H x)` with
+/// `W = N^T B N`.
+///
+/// The model's Hessian `B` is that of the Lagrangian, `Omega` plus the constraints'
+/// curvature weighted by the least-squares multipliers, where it makes `W` positive
+/// definite (near a minimum), and the paper's `B = Omega` elsewhere. The paper's is
+/// exact at an exact fit; where the objective's gradient across the constraints is
+/// large against its curvature along them (noisy points that hardly fix the pose) it
+/// alone makes SQP cycle or diverge near the minimum, the Lagrangian's does not.
+struct SqpModel {
+    /// `H x`: the part of the step that restores the constraints.
+    row: Vector9,
+    /// `N`.
+    null_space: Matrix9x3,
+    /// `W`.
+    hessian: Matrix3<f64>,
+    /// `N^T (Omega r + B H x)`.
+    gradient: Vector3<f64>,
+}
+
+impl SqpModel {
+    fn at(omega: &Matrix9, r: &Vector9) -> Option<Self> {
+        let (jacobian, g) = constraints(r);
+        let (h, jh) = row_space(&jacobian)?;
+        let row = h * jh.solve_lower_triangular(&g)?;
+        let n = null_space(&h)?;
+        // J^T = H (J H)^T, so the multipliers solving J^T mu = 2 Omega r in least
+        // squares are (J H)^-T H^T 2 Omega r.
+        let multipliers = jh
+            .transpose()
+            .solve_upper_triangular(&(h.transpose() * (omega * r) * 2.0))?;
+        let lagrangian = omega + constraint_curvature(&multipliers);
+        let hessian = n.transpose() * lagrangian * n;
+        // Far from a minimum the Lagrangian's W may be indefinite: there the paper's
+        // positive semi-definite N^T Omega N leads the way.
+        let b = if hessian.cholesky().is_some() {
+            lagrangian
+        } else {
+            *omega
+        };
+        Some(Self {
+            row,
+            null_space: n,
+            hessian: n.transpose() * b * n,
+            gradient: n.transpose() * (omega * r + b * row),
+        })
+    }
+
+    /// The full step `H x + N y` with `y` minimizing the model damped by
+    /// `damping * |y|^2 / 2`, its null-space part cut to [`SQP_MAX_TANGENT_STEP`];
+    /// `None` when the damped `W` is not positive definite.
+    fn step(&self, damping: f64) -> Option<Vector9> {
+        let damped = self.hessian + Matrix3::identity() * damping;
+        let y = -damped.cholesky()?.solve(&self.gradient);
+        let mut tangent = self.null_space * y;
+        let length = tangent.norm();
+        if length > SQP_MAX_TANGENT_STEP {
+            tangent *= SQP_MAX_TANGENT_STEP / length;
+        }
+        let step = self.row + tangent;
+        step.iter().all(|v| v.is_finite()).then_some(step)
+    }
+}
+
+/// Half the Hessian of `-mu^T h(r)` for the constraints `h` of [`constraints`]: the
+/// squared-norm constraints have Hessian `2 I` on their row's block, the dot products
+/// `I` on the two blocks they couple; halved like `Omega` (the objective's Hessian is
+/// `2 Omega`).
+fn constraint_curvature(multipliers: &Vector6<f64>) -> Matrix9 {
+    let mu = multipliers;
+    let t = Matrix3::new(
+        mu[0],
+        mu[3] / 2.0,
+        mu[5] / 2.0,
+        mu[3] / 2.0,
+        mu[1],
+        mu[4] / 2.0,
+        mu[5] / 2.0,
+        mu[4] / 2.0,
+        mu[2],
+    );
+    Matrix9::from_fn(|row, col| {
+        if row % 3 == col % 3 {
+            -t[(row / 3, col / 3)]
+        } else {
+            0.0
+        }
+    })
+}
+
+/// The rows of the Jacobian of the six orthogonality constraints
+/// `|r1|^2 = 1, |r2|^2 = 1, |r3|^2 = 1, r1.r2 = 0, r2.r3 = 0, r1.r3 = 0` (`r_k` the rows
+/// of `R`) at `r`, and the constraint residuals `g` that a step must cancel.
+fn constraints(r: &Vector9) -> ([Vector9; 6], Vector6<f64>) {
+    let row = |k: usize| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]);
+    let (r1, r2, r3) = (row(0), row(1), row(2));
+    let zero = Vector3::zeros();
+    let stack = |a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>| {
+        Vector9::from_iterator(a.iter().chain(b.iter()).chain(c.iter()).copied())
+    };
+    let jacobian = [
+        stack(r1 * 2.0, zero, zero),
+        stack(zero, r2 * 2.0, zero),
+        stack(zero, zero, r3 * 2.0),
+        stack(r2, r1, zero),
+        stack(zero, r3, r2),
+        stack(r3, zero, r1),
+    ];
+    let g = Vector6::new(
+        1.0 - r1.norm_squared(),
+        1.0 - r2.norm_squared(),
+        1.0 - r3.norm_squared(),
+        -r1.dot(&r2),
+        -r2.dot(&r3),
+        -r1.dot(&r3),
+    );
+    (jacobian, g)
+}
+
+/// Gram-Schmidt on the Jacobian's rows: an orthonormal basis `H` of the row space
+/// (columns) and the lower-triangular `J H`; `None` if the rows are dependent (the
+/// matrix of `r` has lost rank).
+fn row_space(jacobian: &[Vector9; 6]) -> Option<(Matrix9x6, Matrix6<f64>)> {
+    let mut h = Matrix9x6::zeros();
+    let mut jh = Matrix6::zeros();
+    for (k, row) in jacobian.iter().enumerate() {
+        let mut v = *row;
+        for l in 0..k {
+            let coefficient = row.dot(&h.column(l));
+            jh[(k, l)] = coefficient;
+            v -= h.column(l) * coefficient;
+        }
+        let norm = v.norm();
+        if norm.is_nan() || norm <= 1e-10 * row.norm().max(1.0) {
+            return None;
+        }
+        h.set_column(k, &(v / norm));
+        jh[(k, k)] = norm;
+    }
+    Some((h, jh))
+}
+
+/// An orthonormal basis of the complement of the columns of `h` (orthonormal, 9x6):
+/// Gram-Schmidt on the coordinate axes projected off `h`, taking the longest
+/// remaining one each time.
+fn null_space(h: &Matrix9x6) -> Option<Matrix9x3> {
+    let mut candidates: [Vector9; 9] = std::array::from_fn(|i| {
+        let axis = Vector9::from_fn(|j, _| if i == j { 1.0 } else { 0.0 });
+        axis - h * (h.transpose() * axis)
+    });
+    let mut n = Matrix9x3::zeros();
+    for k in 0..3 {
+        let longest = candidates
+            .iter()
+            .copied()
+            .max_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()))?;
+        let norm = longest.norm();
+        if norm.is_nan() || norm <= 1e-6 {
+            return None;
+        }
+        let basis = longest / norm;
+        for candidate in &mut candidates {
+            *candidate -= basis * basis.dot(candidate);
+        }
+        n.set_column(k, &basis);
+    }
+    Some(n)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::camera::{CameraModel, Distortion, Intrinsics};
+    use crate::pnp::{Correspondences, refine};
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// Focal length of the test camera, pixels.
+    const FOCAL: f64 = 800.0;
+    /// Standard deviation of the pixel noise of the noisy problems, pixels.
+    const NOISE_PX: f64 = 0.5;
+    /// Point counts of the random problems.
+    const COUNTS: [usize; 12] = [3, 4, 5, 6, 7, 8, 10, 15, 20, 35, 60, 100];
+
+    fn camera() -> CameraModel {
+        CameraModel {
+            width: 1600,
+            height: 1200,
+            intrinsics: Intrinsics {
+                fx: FOCAL,
+                fy: FOCAL,
+                cx: 800.0,
+                cy: 600.0,
+            },
+            distortion: Distortion::none(),
+        }
+    }
+
+    fn unit_vector(rng: &mut ChaCha8Rng) -> Vector3<f64> {
+        loop {
+            let v = Vector3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+            );
+            let norm = v.norm();
+            if norm > 0.1 && norm <= 1.0 {
+                return v / norm;
+            }
+        }
+    }
+
+    fn gaussian(rng: &mut ChaCha8Rng) -> f64 {
+        let u: f64 = rng.random_range(f64::EPSILON..1.0);
+        let v: f64 = rng.random_range(0.0..1.0);
+        (-2.0 * u.ln()).sqrt() * (2.0 * std::f64::consts::PI * v).cos()
+    }
+
+    struct Synthetic {
+        truth: Isometry3<f64>,
+        points: Vec<Point3<f64>>,
+        pixels: Vec<Point2<f64>>,
+    }
+
+    impl Synthetic {
+        fn normalized(&self) -> Vec<Point2<f64>> {
+            self.correspondences().normalized
+        }
+
+        fn correspondences(&self) -> Correspondences {
+            Correspondences::new(&camera(), &self.points, &self.pixels).unwrap()
+        }
+    }
+
+    /// A random pose seeing `n` random target points 2 to 5 m away, off the target
+    /// frame's origin: in a cube, or on the plane z = 0 seen at most 60 degrees from
+    /// its normal (from either side). Pixels exact or with Gaussian noise.
+    fn random_problem(rng: &mut ChaCha8Rng, n: usize, planar: bool, noise_px: f64) -> Synthetic {
+        let offset = Vector3::new(
+            rng.random_range(-2.0..2.0),
+            rng.random_range(-2.0..2.0),
+            if planar {
+                0.0
+            } else {
+                rng.random_range(-2.0..2.0)
+            },
+        );
+        let points: Vec<Point3<f64>> = (0..n)
+            .map(|_| {
+                let z = if planar {
+                    0.0
+                } else {
+                    rng.random_range(-0.5..0.5)
+                };
+                Point3::from(
+                    offset
+                        + Vector3::new(rng.random_range(-0.5..0.5), rng.random_range(-0.5..0.5), z),
+                )
+            })
+            .collect();
+        let rotation = if planar {
+            let spin = UnitQuaternion::from_scaled_axis(
+                Vector3::z() * rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+            );
+            let axis = Vector3::new(
+                rng.random_range(-1.0..1.0),
+                rng.random_range(-1.0..1.0),
+                0.0,
+            );
+            let tilt =
+                UnitQuaternion::from_scaled_axis(axis.normalize() * rng.random_range(0.0..1.05));
+            let side = if rng.random_range(0.0..1.0) < 0.5 {
+                UnitQuaternion::identity()
+            } else {
+                UnitQuaternion::from_scaled_axis(Vector3::x() * std::f64::consts::PI)
+            };
+            tilt * side * spin
+        } else {
+            UnitQuaternion::from_scaled_axis(
+                unit_vector(rng) * rng.random_range(0.0..std::f64::consts::PI),
+            )
+        };
+        let centroid = points.iter().map(|p| p.coords).sum::<Vector3<f64>>() / n as f64;
+        let seen_at = Vector3::new(
+            rng.random_range(-0.5..0.5),
+            rng.random_range(-0.5..0.5),
+            rng.random_range(2.0..5.0),
+        );
+        let truth =
+            Isometry3::from_parts(Translation3::from(seen_at - rotation * centroid), rotation);
+        let camera = camera();
+        let pixels = points
+            .iter()
+            .map(|p| {
+                let pixel = camera.project(&(truth * p)).unwrap();
+                pixel + nalgebra::Vector2::new(gaussian(rng), gaussian(rng)) * noise_px
+            })
+            .collect();
+        Synthetic {
+            truth,
+            points,
+            pixels,
+        }
+    }
+
+    /// Rotation angle (radians) and relative translation error of `pose` from `truth`.
+    fn pose_error(pose: &Isometry3<f64>, truth: &Isometry3<f64>) -> (f64, f64) {
+        let angle = pose.rotation.angle_to(&truth.rotation);
+        let translation = (pose.translation.vector - truth.translation.vector).norm()
+            / truth.translation.vector.norm();
+        (angle, translation)
+    }
+
+    /// SQPnP's objective of a pose.
+    fn objective(pose: &Isometry3<f64>, points: &[Point3<f64>], normalized: &[Point2<f64>]) -> f64 {
+        points
+            .iter()
+            .zip(normalized)
+            .map(|(p, m)| point_error(&(pose * p).coords, m))
+            .sum()
+    }
+
+    /// The objective at the local minimum SQP reaches from the true rotation.
+    fn local_minimum_from_truth(problem: &Synthetic) -> f64 {
+        let normalized = problem.normalized();
+        let frame = TargetFrame::fit(&problem.points).unwrap();
+        let local: Vec<_> = problem.points.iter().map(|p| frame.to_local(p)).collect();
+        let quadratic = Problem::new(&local, &normalized).unwrap();
+        let (_, eigenvalues) = quadratic.eigen().unwrap();
+        let sqp = Sqp {
+            omega: &quadratic.omega,
+            scale: eigenvalues[0],
+        };
+        let start = problem.truth.rotation.to_rotation_matrix().into_inner();
+        let end = sqp.run(&start).unwrap();
+        quadratic.evaluate(&end).error * frame.scale * frame.scale
+    }
+
+    fn assert_valid(solutions: &[SqpnpSolution], points: &[Point3<f64>]) {
+        assert!(!solutions.is_empty());
+        for pair in solutions.windows(2) {
+            assert!(pair[0].squared_error <= pair[1].squared_error);
+        }
+        for solution in solutions {
+            let pose = &solution.camera_from_target;
+            assert!(solution.squared_error.is_finite() && solution.squared_error >= 0.0);
+            assert!(pose.translation.vector.iter().all(|v| v.is_finite()));
+            assert!((pose.rotation.norm() - 1.0).abs() < 1e-12);
+            assert!(points.iter().all(|p| (pose * p).z > 0.0));
+        }
+    }
+
+    fn check_exact(planar: bool, seed: u64) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        for n in COUNTS {
+            for _ in 0..12 {
+                let problem = random_problem(&mut rng, n, planar, 0.0);
+                let solutions = sqpnp(&problem.points, &problem.normalized()).unwrap();
+                assert_valid(&solutions, &problem.points);
+                // Three points have up to four exact poses: the truth is one of them.
+                let candidates = if n == 3 {
+                    &solutions[..]
+                } else {
+                    &solutions[..1]
+                };
+                let (angle, translation) = candidates
+                    .iter()
+                    .map(|s| pose_error(&s.camera_from_target, &problem.truth))
+                    .min_by(|a, b| (a.0 + a.1).total_cmp(&(b.0 + b.1)))
+                    .unwrap();
+                assert!(
+                    angle < 1e-8 && translation < 1e-8,
+                    "n {n}: rotation {angle:e} rad, translation {translation:e}"
+                );
+                assert!(
+                    solutions[0].squared_error < 1e-15,
+                    "n {n}: {:e}",
+                    solutions[0].squared_error
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn recovers_exact_non_planar_poses() {
+        check_exact(false, 1);
+    }
+
+    #[test]
+    fn recovers_exact_planar_poses() {
+        check_exact(true, 2);
+    }
+
+    fn check_noisy(planar: bool, seed: u64) {
+        let camera = camera();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        for n in COUNTS {
+            for trial in 0..10 {
+                let problem = random_problem(&mut rng, n, planar, NOISE_PX);
+                let correspondences = problem.correspondences();
+                let normalized = &correspondences.normalized;
+                let solutions = sqpnp(&problem.points, normalized)
+                    .unwrap_or_else(|e| panic!("n {n}, trial {trial}: {e}"));
+                assert_valid(&solutions, &problem.points);
+                let best = &solutions[0];
+                let recomputed = objective(&best.camera_from_target, &problem.points, normalized);
+                assert!((best.squared_error - recomputed).abs() <= 1e-12 * recomputed);
+
+                // Global optimality in SQPnP's own objective: no pose near the truth does
+                // better, whether the truth, its pixel refinement, or the objective's local
+                // minimum next to it.
+                let refined_truth = refine(&camera, &correspondences, &problem.truth).unwrap();
+                let rivals = [
+                    objective(&problem.truth, &problem.points, normalized),
+                    objective(
+                        &refined_truth.camera_from_target,
+                        &problem.points,
+                        normalized,
+                    ),
+                    local_minimum_from_truth(&problem),
+                ];
+                for rival in rivals {
+                    assert!(
+                        best.squared_error <= rival * (1.0 + 1e-9) + 1e-15,
+                        "n {n}: best {:e} above {rival:e}",
+                        best.squared_error
+                    );
+                }
+
+                // And on the pixels: refined, one of the minima reaches the pixel error
+                // of the refined truth. SQPnP's objective weights each point by its
+                // squared depth, so with 3 or 4 points its minima need not lie in the
+                // basin of the best pixel fit: there only its own objective is checked.
+                if n >= 5 {
+                    let refined_rms = solutions
+                        .iter()
+                        .map(|s| {
+                            refine(&camera, &correspondences, &s.camera_from_target)
+                                .unwrap()
+                                .rms_px
+                        })
+                        .fold(f64::INFINITY, f64::min);
+                    assert!(
+                        refined_rms <= refined_truth.rms_px + 1e-9,
+                        "n {n}: {refined_rms} px against {} px",
+                        refined_truth.rms_px
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn finds_the_global_minimum_of_noisy_non_planar_problems() {
+        check_noisy(false, 3);
+    }
+
+    #[test]
+    fn finds_the_global_minimum_of_noisy_planar_problems() {
+        check_noisy(true, 4);
+    }
+
+    #[test]
+    fn solves_a_fronto_parallel_board() {
+        let board: Vec<Point3<f64>> = (0..6)
+            .flat_map(|r| (0..9).map(move |c| Point3::new(c as f64 * 0.03, r as f64 * 0.03, 0.0)))
+            .collect();
+        for spin in [0.0, 0.5, std::f64::consts::FRAC_PI_2, std::f64::consts::PI] {
+            let rotation = UnitQuaternion::from_scaled_axis(Vector3::z() * spin);
+            let truth = Isometry3::from_parts(
+                Translation3::from(
+                    Vector3::new(0.0, 0.0, 0.6) - rotation * Vector3::new(0.12, 0.075, 0.0),
+                ),
+                rotation,
+            );
+            let normalized: Vec<Point2<f64>> = board
+                .iter()
+                .map(|p| {
+                    let c = truth * p;
+                    Point2::new(c.x / c.z, c.y / c.z)
+                })
+                .collect();
+            let solutions = sqpnp(&board, &normalized).unwrap();
+            assert_valid(&solutions, &board);
+            let (angle, translation) = pose_error(&solutions[0].camera_from_target, &truth);
+            assert!(
+                angle < 1e-9 && translation < 1e-9,
+                "spin {spin}: {angle:e}, {translation:e}"
+            );
+        }
+    }
+
+    #[test]
+    fn solves_a_planar_target_off_the_plane_z_0() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for _ in 0..20 {
+            let flat = random_problem(&mut rng, 12, true, 0.0);
+            // The same problem with the target frame moved: the plane is now arbitrary.
+            let moved = Isometry3::from_parts(
+                Translation3::new(0.3, -1.0, 2.0),
+                UnitQuaternion::from_scaled_axis(unit_vector(&mut rng) * 1.3),
+            );
+            let points: Vec<_> = flat.points.iter().map(|p| moved * p).collect();
+            let truth = flat.truth * moved.inverse();
+            let solutions = sqpnp(&points, &flat.normalized()).unwrap();
+            assert_valid(&solutions, &points);
+            let (angle, translation) = pose_error(&solutions[0].camera_from_target, &truth);
+            assert!(
+                angle < 1e-8 && translation < 1e-8,
+                "{angle:e}, {translation:e}"
+            );
+        }
+    }
+
+    #[test]
+    fn does_not_depend_on_the_target_units() {
+        let mut rng = ChaCha8Rng::seed_from_u64(6);
+        let problem = random_problem(&mut rng, 20, false, NOISE_PX);
+        let normalized = problem.normalized();
+        let metres = sqpnp(&problem.points, &normalized).unwrap();
+        let millimetres: Vec<_> = problem.points.iter().map(|p| p * 1000.0).collect();
+        let scaled = sqpnp(&millimetres, &normalized).unwrap();
+        let a = &metres[0].camera_from_target;
+        let b = &scaled[0].camera_from_target;
+        assert!(a.rotation.angle_to(&b.rotation) < 1e-9);
+        assert!((a.translation.vector * 1000.0 - b.translation.vector).norm() < 1e-6);
+        let ratio = scaled[0].squared_error / metres[0].squared_error;
+        assert!((ratio - 1e6).abs() < 1e-3, "{ratio}");
+    }
+
+    #[test]
+    fn returns_only_poses_in_front_of_the_camera() {
+        // Points behind the camera: their image is that of the mirrored target in front,
+        // which no rotation reaches. Whatever is returned must still be valid.
+        let mut rng = ChaCha8Rng::seed_from_u64(7);
+        for n in [3, 4, 6, 10, 30] {
+            for _ in 0..10 {
+                let problem = random_problem(&mut rng, n, false, 0.0);
+                let flip = Isometry3::from_parts(
+                    Translation3::identity(),
+                    UnitQuaternion::from_scaled_axis(Vector3::y() * std::f64::consts::PI),
+                );
+                let behind = flip * problem.truth;
+                let normalized: Vec<_> = problem
+                    .points
+                    .iter()
+                    .map(|p| {
+                        let c = behind * p;
+                        assert!(c.z < 0.0);
+                        Point2::new(c.x / c.z, c.y / c.z)
+                    })
+                    .collect();
+                match sqpnp(&problem.points, &normalized) {
+                    Ok(solutions) => assert_valid(&solutions, &problem.points),
+                    Err(PnpError::BehindCamera { count, total }) => {
+                        assert!(count > 0 && count <= total && total == n)
+                    }
+                    Err(other) => panic!("unexpected {other:?}"),
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn finds_the_front_twin_of_a_planar_target_seen_behind_the_camera() {
+        // A planar target with every point behind the camera images like its half-turn
+        // twin in front: (R Rz(pi), -t) maps each point M of the plane z = 0 to -(R M + t).
+        let mut rng = ChaCha8Rng::seed_from_u64(8);
+        for n in [4, 5, 8, 20, 60] {
+            for _ in 0..8 {
+                let problem = random_problem(&mut rng, n, true, 0.0);
+                let behind = Isometry3::from_parts(
+                    Translation3::from(-problem.truth.translation.vector),
+                    problem.truth.rotation
+                        * UnitQuaternion::from_scaled_axis(Vector3::z() * std::f64::consts::PI),
+                );
+                let normalized: Vec<_> = problem
+                    .points
+                    .iter()
+                    .map(|p| {
+                        let c = behind * p;
+                        assert!(c.z < 0.0);
+                        Point2::new(c.x / c.z, c.y / c.z)
+                    })
+                    .collect();
+                let solutions = sqpnp(&problem.points, &normalized).unwrap();
+                assert_valid(&solutions, &problem.points);
+                let (angle, translation) =
+                    pose_error(&solutions[0].camera_from_target, &problem.truth);
+                assert!(
+                    angle < 1e-8 && translation < 1e-8,
+                    "n {n}: {angle:e}, {translation:e}"
+                );
+            }
+        }
+    }
+
+    fn image_of(points: &[Point3<f64>]) -> Vec<Point2<f64>> {
+        points
+            .iter()
+            .map(|p| {
+                let c = Isometry3::translation(0.1, 0.0, 3.0) * p;
+                Point2::new(c.x / c.z, c.y / c.z)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn refuses_collinear_target_points() {
+        let points: Vec<_> = (0..8)
+            .map(|k| Point3::new(0.2, -0.1, 0.3) + Vector3::new(0.1, 0.07, -0.03) * k as f64)
+            .collect();
+        match sqpnp(&points, &image_of(&points)) {
+            Err(PnpError::Degenerate(reason)) => assert!(reason.contains("one line"), "{reason}"),
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+
+    #[test]
+    fn refuses_coincident_target_points() {
+        let points = vec![Point3::new(0.2, -0.1, 0.3); 5];
+        let normalized: Vec<_> = (0..5).map(|k| Point2::new(0.01 * k as f64, 0.0)).collect();
+        match sqpnp(&points, &normalized) {
+            Err(PnpError::Degenerate(reason)) => assert!(reason.contains("coincide"), "{reason}"),
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+
+    #[test]
+    fn refuses_coincident_image_points() {
+        let points = vec![
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(0.1, 0.0, 0.0),
+            Point3::new(0.0, 0.1, 0.0),
+            Point3::new(0.1, 0.1, 0.05),
+        ];
+        let normalized = vec![Point2::new(0.1, -0.2); 4];
+        match sqpnp(&points, &normalized) {
+            Err(PnpError::Degenerate(reason)) => {
+                assert!(reason.contains("image points coincide"), "{reason}")
+            }
+            other => panic!("unexpected {other:?}"),
+        }
+    }
+
+    #[test]
+    fn refuses_too_few_mismatched_and_non_finite_inputs() {
+        let points = vec![
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(0.1, 0.0, 0.0),
+            Point3::new(0.0, 0.1, 0.0),
+        ];
+        let normalized = image_of(&points);
+        assert_eq!(
+            sqpnp(&points[..2], &normalized[..2]),
+            Err(PnpError::TooFewPoints { needed: 3, got: 2 })
+        );
+        assert_eq!(
+            sqpnp(&points, &normalized[..2]),
+            Err(PnpError::MismatchedLengths {
+                target_points: 3,
+                image_points: 2
+            })
+        );
+        let mut bad_points = points.clone();
+        bad_points[1].y = f64::NAN;
+        assert_eq!(
+            sqpnp(&bad_points, &normalized),
+            Err(PnpError::NonFinite("target points"))
+        );
+        let mut bad_image = normalized.clone();
+        bad_image[2].x = f64::INFINITY;
+        assert_eq!(
+            sqpnp(&points, &bad_image),
+            Err(PnpError::NonFinite("image points"))
+        );
+        assert!(sqpnp(&points, &normalized).is_ok());
+    }
+
+    #[test]
+    fn refuses_overflowing_coordinates_without_nan() {
+        let points = vec![
+            Point3::new(0.0, 0.0, 0.0),
+            Point3::new(0.1, 0.0, 0.0),
+            Point3::new(0.0, 0.1, 0.0),
+            Point3::new(0.1, 0.1, 0.05),
+        ];
+        let normalized = vec![
+            Point2::new(1e200, 0.0),
+            Point2::new(0.0, 1e200),
+            Point2::new(-1e200, 0.0),
+            Point2::new(0.0, 0.0),
+        ];
+        assert!(matches!(
+            sqpnp(&points, &normalized),
+            Err(PnpError::NoSolution(_))
+        ));
+    }
+}
