@@ -8,7 +8,7 @@
 //!
 //! ```yaml
 //! nodes:
-//!   - node: rectify          # which node: rectify or calibrate
+//!   - node: rectify          # which node: rectify, calibrate or pose
 //!     args: [-r, __ns:=/stereo/left, -r, image:=image_raw]   # its ROS arguments
 //!   - node: rectify
 //!     args: [-r, __ns:=/stereo/right, -r, image:=image_raw]
@@ -31,9 +31,10 @@ use stereocal_runtime::shutdown::Shutdown;
 type NodeMain = fn(Vec<String>) -> anyhow::Result<()>;
 
 /// The nodes a composition can hold, by the name the file gives them.
-const NODES: [(&str, NodeMain); 2] = [
+const NODES: [(&str, NodeMain); 3] = [
     ("rectify", |args| crate::rectify::node::run(args)),
     ("calibrate", |args| crate::calibrate::node::run(args)),
+    ("pose", |args| crate::pose::node::run(args)),
 ];
 
 /// The logger name of the composition itself.
@@ -46,7 +47,7 @@ const WATCH_PERIOD: Duration = Duration::from_millis(50);
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ComposedNode {
-    /// Which node (`rectify`, `calibrate`).
+    /// Which node (`rectify`, `calibrate`, `pose`).
     pub node: String,
     /// Its ROS arguments (remaps, parameters), as after `--ros-args`.
     #[serde(default)]
@@ -228,7 +229,7 @@ mod tests {
         };
         let unknown = refused("nodes:\n  - node: rectify\n  - node: rektify\n");
         assert!(
-            unknown.contains("node 2 is \"rektify\": expected one of rectify, calibrate"),
+            unknown.contains("node 2 is \"rektify\": expected one of rectify, calibrate, pose"),
             "{unknown}"
         );
         assert!(refused("nodes: []\n").contains("lists no node"));

@@ -12,6 +12,7 @@ pub mod cli;
 pub mod composition;
 pub mod convert;
 pub mod draw;
+pub mod pose;
 pub mod rectify;
 pub mod target_params;
 pub mod tools;

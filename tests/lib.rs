@@ -13,4 +13,5 @@ mod common;
 mod composition;
 mod node_config;
 mod play;
+mod pose;
 mod rectify;

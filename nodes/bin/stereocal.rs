@@ -23,6 +23,9 @@ enum Command {
     /// Publish a bag's messages over ROS 2 at their recorded pace, optionally with
     /// /clock, like `ros2 bag play`.
     Play(cli::play::PlayArgs),
+    /// Estimate a calibration target's pose in every image of a bag, and write it as
+    /// <ns>/target_pose and /tf.
+    Pose(cli::pose::PoseArgs),
     /// Rectify every image topic of a bag that has a camera_info into <ns>/image_rect.
     Rectify(cli::rectify::RectifyArgs),
     /// Render a synthetic scene with exact ground truth into a rosbag2 bag.
@@ -40,6 +43,7 @@ fn main() -> anyhow::Result<()> {
         Command::Calibrate(args) => cli::calibrate::run(&args),
         Command::Demo(args) => cli::demo::run(&args),
         Command::Play(args) => cli::play::run(&args),
+        Command::Pose(args) => cli::pose::run(&args),
         Command::Rectify(args) => cli::rectify::run(&args),
         Command::Synth(args) => cli::synth::run_command(&args),
         Command::Node { node } => cli::node::run(node),

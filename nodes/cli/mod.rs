@@ -5,5 +5,6 @@ pub mod calibrate;
 pub mod demo;
 pub mod node;
 pub mod play;
+pub mod pose;
 pub mod rectify;
 pub mod synth;

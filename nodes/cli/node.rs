@@ -21,6 +21,13 @@ pub enum NodeCommand {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         args: Vec<String>,
     },
+    /// The pose node: `image` + `camera_info` in, the target's pose (`target_pose`,
+    /// `target_pose_with_covariance`, `/tf`) out.
+    Pose {
+        /// ROS arguments, as for the `pose_node` executable.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
     /// Several nodes in this process, as a composition file lists them, like a
     /// component container.
     Compose {
@@ -37,6 +44,7 @@ pub fn run(command: NodeCommand) -> anyhow::Result<()> {
     match command {
         NodeCommand::Rectify { args } => crate::rectify::node::run(args),
         NodeCommand::Calibrate { args } => crate::calibrate::node::run(args),
+        NodeCommand::Pose { args } => crate::pose::node::run(args),
         NodeCommand::Compose { file, args } => crate::composition::run(&file, &args),
     }
 }

@@ -19,8 +19,7 @@ use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
 use crate::rectify::stage::{Rectified, Rectifier};
 use stereocal_rosbag::{
-    BagReader, BagWriter, ChunkCompression, Durability, OfferedQos, Reliability, TopicFilter,
-    TopicId, WriterOptions,
+    BagReader, BagWriter, ChunkCompression, OfferedQos, TopicFilter, TopicId, WriterOptions,
 };
 
 /// Images per camera that may wait for a camera_info with their stamp.
@@ -292,7 +291,10 @@ pub fn rectify_bag(
             &topic.name,
             &topic.type_name,
             &topic.schema_text,
-            &offered_qos(&topic.offered_qos_profiles),
+            &OfferedQos::from_rosbag2_yaml(&topic.offered_qos_profiles)
+                .into_iter()
+                .next()
+                .unwrap_or_default(),
         )?;
         copy_ids.insert(topic.name.clone(), id);
     }
@@ -549,31 +551,4 @@ impl Camera {
 /// The namespace of a topic: everything before its last `/`.
 fn namespace(topic: &str) -> &str {
     topic.rsplit_once('/').map_or("", |(ns, _)| ns)
-}
-
-/// The QoS a topic was recorded with, from rosbag2's `offered_qos_profiles` YAML (the
-/// first profile; rmw enum values), or the ROS 2 default when absent or unreadable.
-fn offered_qos(yaml: &str) -> OfferedQos {
-    let default = OfferedQos::default();
-    let Ok(profiles) = serde_yaml::from_str::<serde_yaml::Value>(yaml) else {
-        return default;
-    };
-    let Some(profile) = profiles.as_sequence().and_then(|p| p.first()) else {
-        return default;
-    };
-    let number = |key: &str| profile.get(key).and_then(serde_yaml::Value::as_u64);
-    OfferedQos {
-        reliability: match number("reliability") {
-            Some(2) => Reliability::BestEffort,
-            _ => Reliability::Reliable,
-        },
-        durability: match number("durability") {
-            Some(1) => Durability::TransientLocal,
-            _ => Durability::Volatile,
-        },
-        depth: number("depth")
-            .and_then(|d| u32::try_from(d).ok())
-            .filter(|&d| d > 0)
-            .unwrap_or(default.depth),
-    }
 }

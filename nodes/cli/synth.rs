@@ -5,13 +5,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
-use nalgebra::Isometry3;
 use stereocal_msgs::atomic_file;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
-use stereocal_msgs::geometry_msgs::{
-    Point, Pose, PoseStamped, Quaternion, Transform, TransformStamped, Vector3,
-};
+use stereocal_msgs::geometry_msgs::{PoseStamped, TransformStamped};
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_msgs::tf2_msgs::TFMessage;
@@ -26,6 +23,7 @@ use stereocal_vision::synth::{
 
 use crate::convert::{
     CalibratedCamera, Encoding, info_from_calibrated, info_from_raw_camera, msg_from_image,
+    pose_msg, transform_msg,
 };
 use stereocal_rosbag::{BagWriter, OfferedQos, WriterOptions};
 
@@ -332,36 +330,6 @@ fn ros_time(stamp: &StampRecord) -> Time {
     Time {
         sec: stamp.sec,
         nanosec: stamp.nanosec,
-    }
-}
-
-fn pose_msg(transform: &Isometry3<f64>) -> Pose {
-    let t = transform.translation.vector;
-    let q = transform.rotation.quaternion();
-    Pose {
-        position: Point {
-            x: t.x,
-            y: t.y,
-            z: t.z,
-        },
-        orientation: Quaternion {
-            x: q.i,
-            y: q.j,
-            z: q.k,
-            w: q.w,
-        },
-    }
-}
-
-fn transform_msg(transform: &Isometry3<f64>) -> Transform {
-    let pose = pose_msg(transform);
-    Transform {
-        translation: Vector3 {
-            x: pose.position.x,
-            y: pose.position.y,
-            z: pose.position.z,
-        },
-        rotation: pose.orientation,
     }
 }
 

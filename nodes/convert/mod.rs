@@ -1,15 +1,18 @@
 //! Conversions between ROS 2 messages and the vision types: `sensor_msgs/Image` to and
 //! from [`stereocal_vision::image::Image`], and `sensor_msgs/CameraInfo` to and from a
-//! [`stereocal_vision::camera::CameraModel`] with its rectification `R` and projection `P`.
+//! [`stereocal_vision::camera::CameraModel`] with its rectification `R` and projection `P`, and
+//! `nalgebra::Isometry3` poses to geometry_msgs poses and transforms.
 //!
 //! Every field that comes from a message is validated; a bad message gives an error
 //! naming the field, the value found and the value expected.
 
 mod camera_info;
 mod image;
+mod pose;
 
 pub use camera_info::{
     CalibratedCamera, CameraInfoError, calibrated_camera_from_info, info_from_calibrated,
     info_from_raw_camera,
 };
 pub use image::{Encoding, ImageMsgError, decode_image_into, image_from_msg, msg_from_image};
+pub use pose::{pose_msg, pose_with_covariance_msg, transform_msg};

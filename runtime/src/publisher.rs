@@ -84,6 +84,12 @@ impl<M: Serialize + Send + Sync + 'static> TopicPublisher<M> {
         }
     }
 
+    /// Whether anyone reads the topic, in this process or outside it: a publisher of
+    /// something costly to make (an annotated image) makes it only then.
+    pub fn has_readers(&self) -> bool {
+        !self.intra.in_process_readers().is_empty() || self.outside_readers() > 0
+    }
+
     /// How many DDS readers of the topic outside this process have been discovered.
     pub fn outside_readers(&self) -> usize {
         let in_process = self.intra.in_process_readers();

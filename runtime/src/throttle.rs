@@ -28,14 +28,21 @@ impl Throttle {
     /// Logs `message` at `level` unless it is the message last logged, less than
     /// [`REPEAT_LOG_PERIOD`] ago (a clock that went back ends the wait).
     pub fn log(&mut self, level: log::Level, message: String) {
+        self.log_as(level, message.clone(), message);
+    }
+
+    /// Logs `message` at `level` unless a message of the same `kind` was the last
+    /// logged, less than [`REPEAT_LOG_PERIOD`] ago: for messages whose text changes
+    /// from frame to frame (a measured value) but whose meaning does not.
+    pub fn log_as(&mut self, level: log::Level, kind: String, message: String) {
         let now = self.clock.now();
-        let repeat = self.last.as_ref().is_some_and(|(m, at)| {
+        let repeat = self.last.as_ref().is_some_and(|(k, at)| {
             let since = now.seconds_since(at);
-            *m == message && (0.0..REPEAT_LOG_PERIOD.as_secs_f64()).contains(&since)
+            *k == kind && (0.0..REPEAT_LOG_PERIOD.as_secs_f64()).contains(&since)
         });
         if !repeat {
             log::log!(level, "{message}");
-            self.last = Some((message, now));
+            self.last = Some((kind, now));
         }
     }
 

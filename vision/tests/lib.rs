@@ -14,6 +14,7 @@ mod camera_opencv;
 mod camera_undistort;
 mod charuco;
 mod common;
+mod pnp_opencv_failures;
 mod remap_opencv_fixture;
 mod stereo_rectify_geometry;
 mod stereo_rectify_opencv;

@@ -54,15 +54,16 @@ pub enum PnpError {
     /// Two distinct poses explain the image almost equally well (the planar
     /// ambiguity): choosing one would be a guess.
     #[error(
-        "ambiguous pose: the second-best pose's error is only {ratio:.2} times the best's \
-         ({best_rms_px:.3} px against {second_rms_px:.3} px, poses {angle_deg:.1} deg apart); \
-         at least {min_ratio:.2} is needed: tilt the target or use more of it"
+        "ambiguous pose: a second pose {angle_deg:.1} deg away explains the corners almost as \
+         well ({best_rms_px:.3} px against {second_rms_px:.3} px RMS, {significance:.1} \
+         standard deviations of noise apart, at least {min_significance:.1} needed): tilt the \
+         target or bring more of it into view"
     )]
     Ambiguous {
-        /// Second-best RMS error over best RMS error.
-        ratio: f64,
-        /// The least accepted ratio.
-        min_ratio: f64,
+        /// How many standard deviations of pixel noise the second pose is worse.
+        significance: f64,
+        /// The least accepted significance.
+        min_significance: f64,
         /// RMS reprojection error of the best pose, pixels.
         best_rms_px: f64,
         /// RMS reprojection error of the second-best pose, pixels.

@@ -5,13 +5,14 @@
 //! coordinates `(X/Z, Y/Z)` on the camera's `z = 1` plane, which [`Correspondences`]
 //! computes from pixels through any [`CameraModel`] (all three distortion models, or a
 //! rectified camera through its projection matrix P as a distortion-free model).
-//! [`refine`] polishes a pose by Levenberg-Marquardt on the pixel reprojection error.
+//! [`refine()`] polishes a pose by Levenberg-Marquardt on the pixel reprojection error.
 //!
 //! Frames: a target point `X_t` maps to the camera frame as `camera_from_target * X_t`;
 //! the camera frame is x right, y down, z forward.
 
 pub mod epnp;
 mod error;
+mod estimate;
 pub mod ippe;
 pub mod p3p;
 pub mod ransac;
@@ -19,6 +20,7 @@ pub mod refine;
 pub mod sqpnp;
 
 pub use error::PnpError;
+pub use estimate::{PlanarAmbiguity, PoseEstimate, PoseOptions, Solver, estimate_pose};
 pub use refine::{Refined, refine};
 
 use nalgebra::{Point2, Point3};
