@@ -239,3 +239,50 @@ fn points_behind_the_camera_have_no_projection() {
             .is_none()
     );
 }
+
+/// The pose-only projection is the full one's pixel and pose derivative.
+#[test]
+fn pose_only_projection_matches_the_full_one() {
+    use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
+    use stereocal_vision::camera::{CameraModel, Distortion, DistortionModel, Intrinsics};
+    for (model, d) in [
+        (
+            DistortionModel::PlumbBob,
+            vec![-0.25, 0.08, 0.001, -0.0005, 0.01],
+        ),
+        (
+            DistortionModel::RationalPolynomial,
+            vec![0.3, -0.1, 0.001, 0.002, 0.01, 0.5, -0.05, 0.02],
+        ),
+        (
+            DistortionModel::Equidistant,
+            vec![0.05, -0.01, 0.002, -0.0005],
+        ),
+    ] {
+        let camera = CameraModel {
+            width: 1024,
+            height: 768,
+            intrinsics: Intrinsics {
+                fx: 800.0,
+                fy: 805.0,
+                cx: 515.0,
+                cy: 380.0,
+            },
+            distortion: Distortion::from_coeffs(model, &d).unwrap(),
+        };
+        let pose = Isometry3::from_parts(
+            Translation3::new(-0.1, 0.05, 0.7),
+            UnitQuaternion::from_scaled_axis(Vector3::new(0.3, -0.2, 0.1)),
+        );
+        let point = Point3::new(0.2, 0.1, 0.0);
+        let full = camera
+            .project_target_point_with_jacobians(&pose, &point)
+            .unwrap();
+        let (pixel, jacobian) = camera.project_with_pose_jacobian(&pose, &point).unwrap();
+        assert!((pixel - full.projection.pixel).norm() < 1e-12, "{model:?}");
+        assert!(
+            (jacobian - full.d_pixel_d_pose).abs().max() < 1e-9,
+            "{model:?}"
+        );
+    }
+}

@@ -53,6 +53,40 @@ pub fn retract_pose(camera_from_target: &Isometry3<f64>, delta: &Vector6<f64>) -
 }
 
 impl CameraModel {
+    /// Projects a point given in a target frame through `camera_from_target` with only
+    /// the derivative with respect to the pose (left perturbation, see
+    /// [`retract_pose`]): what pose estimation needs, without the intrinsics' and
+    /// distortion's derivatives. `None` when the point is not in front of the camera.
+    pub fn project_with_pose_jacobian(
+        &self,
+        camera_from_target: &Isometry3<f64>,
+        point_in_target: &Point3<f64>,
+    ) -> Option<(Point2<f64>, Matrix2x6<f64>)> {
+        let point = camera_from_target * point_in_target;
+        let (x, y, z) = (point.x, point.y, point.z);
+        if z <= 0.0 {
+            return None;
+        }
+        let normalized = Vector2::new(x / z, y / z);
+        let d_distorted = self.distortion.distort_jacobian_point(&normalized);
+        let pixel = self
+            .intrinsics
+            .pixel_from_normalized(&self.distortion.distort(&normalized));
+        let focal = Matrix2::new(self.intrinsics.fx, 0.0, 0.0, self.intrinsics.fy);
+        let d_normalized_d_point =
+            Matrix2x3::new(1.0 / z, 0.0, -x / (z * z), 0.0, 1.0 / z, -y / (z * z));
+        let d_pixel_d_point = focal * d_distorted * d_normalized_d_point;
+        // d(exp(omega) X + tau) / d(omega, tau) at 0 is [-[X]x, I].
+        let mut d_pixel_d_pose = Matrix2x6::zeros();
+        d_pixel_d_pose
+            .fixed_view_mut::<2, 3>(0, 0)
+            .copy_from(&(d_pixel_d_point * -point.coords.cross_matrix()));
+        d_pixel_d_pose
+            .fixed_view_mut::<2, 3>(0, 3)
+            .copy_from(&d_pixel_d_point);
+        Some((pixel, d_pixel_d_pose))
+    }
+
     /// Projects a point in the camera frame with the analytic derivatives of the pixel
     /// with respect to the point, the intrinsics and the distortion coefficients;
     /// `None` when the point is not in front of the camera (`z <= 0`).

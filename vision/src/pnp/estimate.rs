@@ -95,9 +95,9 @@ pub struct PoseEstimate {
 
 /// Estimates `camera_from_target` from 4 or more correspondences seen by `camera`.
 ///
-/// Planar targets start from both IPPE poses and SQPnP's minima, others from SQPnP's
-/// minima and EPnP; every start is refined on the pixel error through the full camera
-/// model and the best is kept. The pose is refused, with the reason, when the points
+/// Planar targets start from both IPPE poses, others from SQPnP's minima (SQPnP, then
+/// EPnP, when those find nothing); every start is refined on the pixel error through
+/// the full camera model and the best is kept. The pose is refused, with the reason, when the points
 /// are degenerate (coincident or on one line), the pose is not determined, points
 /// would be behind the camera, the error is above `options.max_rms_px`, or a distinct
 /// second pose of a planar target explains the pixels within
@@ -234,30 +234,28 @@ impl Shape {
     }
 }
 
-/// Every starting pose the solvers give for a target of this shape.
+/// The starting poses for a target of this shape: both IPPE poses of a planar target
+/// (the two minima a plane can have), SQPnP's minima otherwise; SQPnP, then EPnP, when
+/// the first choice finds nothing.
 fn starting_poses(c: &Correspondences, shape: Shape) -> Vec<(Isometry3<f64>, Solver)> {
-    let mut starts = Vec::new();
     if shape == Shape::Planar
         && let Ok(solutions) = ippe(&c.target_points, &c.normalized)
     {
-        starts.push((solutions.best, Solver::Ippe));
+        let mut starts = vec![(solutions.best, Solver::Ippe)];
         if solutions.second_rms.is_finite() {
             starts.push((solutions.second, Solver::Ippe));
         }
+        return starts;
     }
     if let Ok(minima) = sqpnp(&c.target_points, &c.normalized) {
-        starts.extend(
-            minima
-                .into_iter()
-                .map(|m| (m.camera_from_target, Solver::Sqpnp)),
-        );
+        return minima
+            .into_iter()
+            .map(|m| (m.camera_from_target, Solver::Sqpnp))
+            .collect();
     }
-    if shape == Shape::General
-        && let Ok(pose) = epnp(&c.target_points, &c.normalized)
-    {
-        starts.push((pose, Solver::Epnp));
-    }
-    starts
+    epnp(&c.target_points, &c.normalized)
+        .map(|pose| vec![(pose, Solver::Epnp)])
+        .unwrap_or_default()
 }
 
 fn is_finite(r: &Refined) -> bool {

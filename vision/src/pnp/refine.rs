@@ -1,7 +1,7 @@
 //! Levenberg-Marquardt refinement of a pose on the pixel reprojection error, through
 //! the full camera model (distortion included).
 
-use nalgebra::{Isometry3, Matrix6, Point2, Vector2, Vector6};
+use nalgebra::{Isometry3, Matrix6, Vector2, Vector6};
 
 use super::{Correspondences, PnpError};
 use crate::camera::{CameraModel, retract_pose};
@@ -9,7 +9,9 @@ use crate::camera::{CameraModel, retract_pose};
 /// Iterations after which refinement stops even if still improving.
 const MAX_ITERATIONS: usize = 100;
 /// Relative decrease of the squared error below which refinement has converged.
-const RELATIVE_TOLERANCE: f64 = 1e-14;
+const RELATIVE_TOLERANCE: f64 = 1e-12;
+/// Step (radians and metres) below which refinement has converged.
+const STEP_TOLERANCE: f64 = 1e-12;
 
 /// A refined pose and how well it explains the pixels.
 #[derive(Clone, Debug, PartialEq)]
@@ -53,33 +55,14 @@ fn linearize(
         .iter()
         .zip(&correspondences.pixels)
     {
-        let projected = camera.project_target_point_with_jacobians(camera_from_target, point)?;
-        let r = projected.projection.pixel - pixel;
-        let j = projected.d_pixel_d_pose;
+        let (projected, j) = camera.project_with_pose_jacobian(camera_from_target, point)?;
+        let r = projected - pixel;
         lin.jtj += j.transpose() * j;
         lin.jtr += j.transpose() * r;
         lin.cost += r.norm_squared();
         lin.residuals.push(r);
     }
     Some(lin)
-}
-
-/// The squared reprojection error of a pose; `None` when a point is not in front of
-/// the camera.
-fn cost(
-    camera: &CameraModel,
-    correspondences: &Correspondences,
-    camera_from_target: &Isometry3<f64>,
-) -> Option<f64> {
-    correspondences
-        .target_points
-        .iter()
-        .zip(&correspondences.pixels)
-        .map(|(point, pixel): (_, &Point2<f64>)| {
-            let projected = camera.project(&(camera_from_target * point))?;
-            Some((projected - pixel).norm_squared())
-        })
-        .sum()
 }
 
 /// Refines `initial` to the nearest minimum of the squared pixel reprojection error
@@ -123,18 +106,19 @@ pub fn refine(
             lambda *= 10.0;
             continue;
         };
+        // Gauss-Newton's predicted decrease: nothing left to gain means converged.
+        let predicted = -(lin.jtr.dot(&step)) - 0.5 * step.dot(&(lin.jtj * step));
+        if predicted <= RELATIVE_TOLERANCE * lin.cost || step.norm() < STEP_TOLERANCE {
+            break;
+        }
         let candidate = retract_pose(&pose, &step);
-        match cost(camera, correspondences, &candidate) {
-            Some(new_cost) if new_cost <= lin.cost => {
-                let decrease = lin.cost - new_cost;
+        match linearize(camera, correspondences, &candidate) {
+            Some(next) if next.cost <= lin.cost => {
+                let decrease = lin.cost - next.cost;
                 pose = candidate;
-                lin = linearize(camera, correspondences, &pose).ok_or_else(|| {
-                    PnpError::NoSolution("refinement left the camera's field".into())
-                })?;
+                lin = next;
                 lambda = (lambda / 10.0).max(1e-12);
-                if decrease <= RELATIVE_TOLERANCE * new_cost.max(f64::MIN_POSITIVE)
-                    || step.norm() < 1e-15
-                {
+                if decrease <= RELATIVE_TOLERANCE * lin.cost {
                     break;
                 }
             }
@@ -160,7 +144,7 @@ pub fn refine(
 mod tests {
     use super::*;
     use crate::camera::{Distortion, DistortionModel, Intrinsics};
-    use nalgebra::{Point3, Translation3, UnitQuaternion, Vector3};
+    use nalgebra::{Point2, Point3, Translation3, UnitQuaternion, Vector3};
 
     fn camera() -> CameraModel {
         CameraModel {
