@@ -9,7 +9,8 @@ names and namespaces, the topics they subscribe and publish, the services they c
 and the parameter values from the params file and the launch arguments. Every node must
 then stop cleanly on SIGTERM, as it does when `ros2 launch` is interrupted.
 
-Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin stereocal`):
+Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin pose_node
+--bin stereocal`):
     .venv/bin/python interop/check_launch_rclpy.py
 """
 
@@ -29,7 +30,9 @@ ROOT = Path(__file__).resolve().parent.parent
 #: values prove the file reached the nodes.
 RECTIFY_PARAMS = {"interpolation": 2, "queue_size": 3}
 #: Launch arguments that only say where an executable is (left out of the check names).
-EXECUTABLES = {"rectify_node", "calibrate_node", "stereocal", "params_file"}
+EXECUTABLES = {"rectify_node", "calibrate_node", "pose_node", "stereocal", "params_file"}
+#: The params file launch/pose.launch.py gives pose_node by default.
+POSE_PARAMS_FILE = ROOT / "config" / "pose_node.yaml"
 
 
 def rectify_params_file(workdir):
@@ -39,7 +42,32 @@ def rectify_params_file(workdir):
     return str(path)
 
 
-def cases(rectify_node, calibrate_node, stereocal, rectify_params):
+def pose_file_parameters():
+    """What config/pose_node.yaml sets: its `size` and `square` are not the node's
+    defaults (none), so the values prove the file reached the node."""
+    return yaml.safe_load(POSE_PARAMS_FILE.read_text())["/**/pose_node"]["ros__parameters"]
+
+
+def pose_graph(camera, image, values):
+    """pose_node in `camera` reading `camera`/`image`, as launch/pose.launch.py starts it."""
+    return {
+        f"{camera}/pose_node": (
+            {f"{camera}/{image}": "sensor_msgs/msg/Image",
+             f"{camera}/camera_info": "sensor_msgs/msg/CameraInfo"},
+            {f"{camera}/target_pose": "geometry_msgs/msg/PoseStamped",
+             f"{camera}/target_pose_with_covariance":
+                 "geometry_msgs/msg/PoseWithCovarianceStamped",
+             # By name: rclpy has no tf2_msgs, and needs none to read the graph.
+             "/tf": "tf2_msgs/msg/TFMessage",
+             f"{camera}/pose_node/status": "std_msgs/msg/String",
+             f"{camera}/pose_node/annotated_image": "sensor_msgs/msg/Image"},
+            {},
+            values,
+        )
+    }
+
+
+def cases(rectify_node, calibrate_node, pose_node, stereocal, rectify_params):
     """(launch file, launch arguments, processes started, {node: (subscribed,
     published, called services, parameter values)}) for every launch file, as its
     documentation describes it."""
@@ -93,6 +121,14 @@ def cases(rectify_node, calibrate_node, stereocal, rectify_params):
         ("calibrate.launch.py", {"calibrate_node": calibrate_node}, ["/camera/calibrate_node"], calibrate_mono),
         ("stereo_rectify_composed.launch.py", {"stereocal": stereocal, "params_file": rectify_params},
          ["stereocal (composition)"], composed),
+        ("pose.launch.py", {"pose_node": pose_node}, ["/camera/pose_node"],
+         pose_graph("/camera", "image_raw", pose_file_parameters())),
+        ("pose.launch.py", {"pose_node": pose_node, "camera": "/my_camera", "rectified": "true",
+                            "size": "8x6", "square": "0.108", "target_frame": "board"},
+         ["/my_camera/pose_node"],
+         pose_graph("/my_camera", "image_rect", {
+             **pose_file_parameters(), "size": "8x6", "square": 0.108, "target_frame": "board",
+             "image_is_rectified": True})),
     ]
 
 
@@ -170,18 +206,20 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rectify-node", default=str(ROOT / "target" / "debug" / "rectify_node"))
     parser.add_argument("--calibrate-node", default=str(ROOT / "target" / "debug" / "calibrate_node"))
+    parser.add_argument("--pose-node", default=str(ROOT / "target" / "debug" / "pose_node"))
     parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
     args = parser.parse_args()
-    for binary in (args.rectify_node, args.calibrate_node, args.stereocal):
+    for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.stereocal):
         if not Path(binary).exists():
-            sys.exit(f"{binary} not found; build it with "
-                     "`cargo build --bin rectify_node --bin calibrate_node --bin stereocal`")
+            sys.exit(f"{binary} not found; build it with `cargo build --bin rectify_node "
+                     "--bin calibrate_node --bin pose_node --bin stereocal`")
     checks = Checks()
     with tempfile.TemporaryDirectory() as workdir:
         # calibrate_node keeps its samples under $ROS_HOME: a folder of this check's own.
         os.environ["ROS_HOME"] = workdir
         for launch_file, arguments, processes, expected in cases(
-                args.rectify_node, args.calibrate_node, args.stereocal, rectify_params_file(workdir)):
+                args.rectify_node, args.calibrate_node, args.pose_node, args.stereocal,
+                rectify_params_file(workdir)):
             check_case(checks, launch_file, arguments, processes, expected, workdir)
     return checks.table()
 

@@ -7,28 +7,39 @@ nodes around it would see:
 
 - discovery: the node's name and namespace are in the ROS graph (`ros2 node list`);
 - graph: its publishers, subscribers, services and service clients, with their types,
-  are exactly those it documents, and its topics are in `ros2 topic list -t`;
+  are exactly those it documents, and its topics are in `ros2 topic list -t` (pose_node's
+  /tf by its type's name: there is no tf2_msgs wheel for rclpy, and
+  interop/check_pose_cyclone.py receives /tf with Cyclone DDS);
 - QoS: a default reliable subscriber (depth 10) and a `qos_profile_sensor_data`
-  best-effort subscriber both receive its image output, published from rclpy's input;
+  best-effort subscriber both receive its output (images; pose_node's target_pose),
+  published from rclpy's input;
 - content: rectify_node's image_rect equals OpenCV's initUndistortRectifyMap + remap
   within 1 grey level (bilinear, then nearest after `interpolation` is set to 0 while it
   runs); calibrate_node, fed a synthesized stereo session (`stereocal synth`) from
   rclpy, calibrates on `~/calibrate` within 0.2 px (fx, fy, cx, cy), 0.1 degree and 1 mm
   (right_from_left) of the session's ground truth, and `~/commit` writes camera_info
   YAML that PyYAML reads back with the same numbers, while rclpy's set_camera_info
-  server receives the same calibration;
+  server receives the same calibration; pose_node, fed a synthesized eye-in-hand session
+  (image + camera_info of equal stamps) from rclpy, publishes every frame's target_pose
+  with the image's stamp and frame_id, within 0.05 degree and 0.5 mm of the ground truth
+  and equal (1e-9) to `stereocal pose --json` on the same bag, and its
+  target_pose_with_covariance with the same pose and a symmetric positive semi-definite
+  covariance equal to --json's; an uncalibrated camera_info (K[0] = 0) and an image
+  without the target publish no pose and are counted in `~/status`'s `rejections`;
 - parameters through the rcl_interfaces services, as `ros2 param` calls them: list
   (with prefixes and depth), get, get types, describe (a description for every
   parameter, ranges on every integer and double, read_only, allowed values of string
   parameters with a fixed set in `additional_constraints`), a set that takes effect, a
   set out of range or of a read-only parameter refused with a reason and changing
-  nothing, an atomic set with one bad value changing nothing, `/parameter_events`
-  naming the node and the new value after a set, and every parameter described in one
-  call (a reply larger than one datagram);
+  nothing (pose_node, whose parameters are all read-only, also refuses to start with an
+  out-of-range value), an atomic set with one bad value changing nothing,
+  `/parameter_events` naming the node and the new value after a set, and every
+  parameter described in one call (a reply larger than one datagram);
 - services: calibrate_node's `~/calibrate` (refused with the reason before enough
   samples, then succeeding), `~/commit`, `~/reset`;
-- durability: a transient-local subscriber created after calibrate_node published
-  `~/status` still receives the last status;
+- durability: a transient-local subscriber created after calibrate_node or pose_node
+  published `~/status` still receives the last status (pose_node's with the session's
+  frame counts);
 - /rosout: rcl_interfaces/Log records from the node, with its logger name;
 - clean shutdown: SIGTERM makes the node exit with 0, no thread of it having panicked,
   and leave the graph.
@@ -41,14 +52,16 @@ Fast DDS's default (the OS's 208 KiB) the 2.4 MB annotated images, which RustDDS
 as one burst of datagrams, overflow it, and a best-effort subscriber gets none of them
 (`--fastdds-socket-buffer 0` shows it).
 
-Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin stereocal`):
+Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin pose_node
+--bin stereocal`):
     .venv/bin/python interop/check_nodes_rclpy.py [--rectify-node PATH]
-        [--calibrate-node PATH] [--stereocal PATH] [--only rectify|calibrate]
-        [--fastdds-socket-buffer BYTES]
+        [--calibrate-node PATH] [--pose-node PATH] [--stereocal PATH]
+        [--only rectify|calibrate|pose] [--fastdds-socket-buffer BYTES]
 """
 
 import argparse
 import array
+import copy
 import json
 import subprocess
 import tempfile
@@ -58,20 +71,26 @@ import cv2
 import numpy as np
 import yaml
 from bag_images import messages as bag_messages
+from pose_session import FRAMES as POSE_FRAMES
+from pose_session import (
+    CAMERA_INFO, IMAGE_RAW, OFFLINE_TOLERANCE, TRUTH_DEGREES, TRUTH_MM, offline_difference,
+    quaternion_norm, rotation_of, synthesize, truth_error,
+)
 # ros2_rclpy first: it chooses the middleware before rclpy loads one.
 from rectify_scene import D, HEIGHT, K, P, R, WIDTH, opencv_rectified, pixels
 from ros2_rclpy import (
-    DomainLease, NodeProcess, Parameters, Peer, main_guard, python_value, require,
+    TIMEOUT_S, DomainLease, NodeProcess, Parameters, Peer, main_guard, python_value, require,
     stop_and_check,
 )
 
 from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseStamped, PoseWithCovarianceStamped
 from rcl_interfaces.msg import Log, ParameterEvent, ParameterType
 from rclpy.qos import (
     DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_parameter_events,
     qos_profile_rosout_default, qos_profile_sensor_data,
 )
-from sensor_msgs.msg import CameraInfo, Image
+from sensor_msgs.msg import CameraInfo, Image, RegionOfInterest
 from sensor_msgs.srv import SetCameraInfo
 from std_msgs.msg import Header, String
 
@@ -673,20 +692,334 @@ def calibrate_checks(checks, peer, rosout, c, pairs, truth, size):
     describe_all_check(checks, label, c.params)
 
 
+# ---------------------------------------------------------------------------------------
+# pose_node
+
+TARGET_POSE, WITH_COVARIANCE = "/camera/target_pose", "/camera/target_pose_with_covariance"
+
+
+def rclpy_frame(image, info):
+    """A session frame (rosbags messages) as rclpy's Image and CameraInfo."""
+    stamp = stamp_of(image)
+    roi = info.roi
+    return (
+        Image(header=header(stamp, image.header.frame_id), height=image.height,
+              width=image.width, encoding=image.encoding, is_bigendian=image.is_bigendian,
+              step=image.step, data=array.array("B", image.data.tobytes())),
+        CameraInfo(header=header(stamp_of(info), info.header.frame_id), height=info.height,
+                   width=info.width, distortion_model=info.distortion_model,
+                   d=[float(v) for v in info.d], k=[float(v) for v in info.k],
+                   r=[float(v) for v in info.r], p=[float(v) for v in info.p],
+                   binning_x=info.binning_x, binning_y=info.binning_y,
+                   roi=RegionOfInterest(x_offset=roi.x_offset, y_offset=roi.y_offset,
+                                        height=roi.height, width=roi.width,
+                                        do_rectify=roi.do_rectify)),
+    )
+
+
+def restamped(frame, seconds, image=None, **info_fields):
+    """Copies of a frame `seconds` later, with `image` for its pixels when given and
+    camera_info fields replaced by `info_fields`."""
+    msg, info = copy.deepcopy(frame)
+    stamp = (msg.header.stamp.sec + seconds, msg.header.stamp.nanosec)
+    msg.header = info.header = header(stamp, msg.header.frame_id)
+    if image is not None:
+        msg.data = array.array("B", image.tobytes())
+    for field, value in info_fields.items():
+        setattr(info, field, value)
+    return msg, info
+
+
+class Pose:
+    """pose_node in /camera on image_raw, and rclpy around it: publishers of the frames,
+    a default reliable and a best-effort subscriber of target_pose, subscribers of
+    target_pose_with_covariance and of the status."""
+    label, name, namespace = "pose_node", "pose_node", "/camera"
+    fqn = "/camera/pose_node"
+
+    def __init__(self, peer, binary, session):
+        self.peer = peer
+        node = peer.node
+        self.image_pub = node.create_publisher(Image, IMAGE_RAW, RELIABLE)
+        self.info_pub = node.create_publisher(CameraInfo, CAMERA_INFO, RELIABLE)
+        self.reliable = peer.subscribe(PoseStamped, TARGET_POSE, RELIABLE)
+        self.sensor = peer.subscribe(PoseStamped, TARGET_POSE, qos_profile_sensor_data)
+        self.with_covariance = peer.subscribe(PoseWithCovarianceStamped, WITH_COVARIANCE,
+                                              RELIABLE)
+        self.status = peer.subscribe(String, f"{self.fqn}/status", STATUS_QOS)
+        size, square = session.size_parameters()
+        self.documented = {
+            "pattern": "chessboard", "size": size, "square": square, "marker_size": 0.0,
+            "dictionary": "4x4_50", "target_frame": "target", "camera_frame": "",
+            "max_reprojection_error": 2.0, "min_ambiguity_significance": 3.0,
+            "pixel_noise": 0.1, "image_is_rectified": False, "publish_tf": True,
+            "queue_size": 5,
+        }
+        self.command = [binary, "--ros-args", "-r", "__ns:=/camera", "-r", "image:=image_raw",
+                        "-p", f"size:={size}", "-p", f"square:={square}"]
+        self.process = NodeProcess(self.command, peer.domain)
+        peer.watch(self.process)
+        self.params = Parameters(peer, self.fqn)
+
+    def last_status(self):
+        return json.loads(self.status.last.data) if self.status.last else None
+
+    def rejections(self, kind):
+        return self.last_status()["rejections"].get(kind, 0)
+
+    def received(self, stamp):
+        """The frame's target_pose on the reliable and the best-effort subscriber and its
+        target_pose_with_covariance, once all three are here; else None."""
+        got = [next((m for m in inbox.messages if stamp_of(m) == stamp), None)
+               for inbox in (self.reliable, self.sensor, self.with_covariance)]
+        return got if all(got) else None
+
+    def send_until(self, frame, condition, what):
+        """Publishes the frame's camera_info and image, again while `condition()` does
+        not hold (the node reads them best-effort); returns the condition's value."""
+        def send():
+            self.info_pub.publish(frame[1])
+            self.image_pub.publish(frame[0])
+        return self.peer.send_until(
+            send, condition, lambda: f"{what} (frame {stamp_of(frame[0])}); status "
+                                     f"{self.last_status()}")
+
+
+def pose_of(pose):
+    """A geometry_msgs/Pose as (rotation matrix, translation)."""
+    return rotation_of(pose.orientation), [pose.position.x, pose.position.y, pose.position.z]
+
+
+def covariance_problems(covariance, record):
+    """What is wrong with a PoseWithCovariance's covariance: not 36 entries, not
+    symmetric positive semi-definite, or not `stereocal pose --json`'s (`record`)."""
+    if len(covariance) != 36:
+        return [f"{len(covariance)} entries"]
+    c = np.reshape(covariance, (6, 6))
+    scale = float(np.abs(c).max())
+    problems = []
+    if scale == 0.0 or not np.all(np.isfinite(c)):
+        problems.append(f"covariance {c.tolist()}")
+    elif not np.allclose(c, c.T, rtol=0, atol=1e-9 * scale):
+        problems.append("not symmetric")
+    elif np.linalg.eigvalsh(c).min() < -1e-9 * scale:
+        problems.append(f"an eigenvalue {np.linalg.eigvalsh(c).min():.3g} < 0")
+    if not np.allclose(c.ravel(), record["covariance"], rtol=1e-9, atol=1e-12 * scale):
+        problems.append("not stereocal pose --json's covariance")
+    return problems
+
+
+def check_pose(checks, peer, rosout, binary, stereocal):
+    label = Pose.label
+    setup = f"setup: stereocal synth (eye-in-hand, {POSE_FRAMES} frames), stereocal pose --json"
+    with tempfile.TemporaryDirectory() as tmp:
+        with checks.check(label, setup) as note:
+            session = synthesize(stereocal, tmp)
+            frames = [rclpy_frame(*f) for f in session.frames()]
+            require(len(frames) == POSE_FRAMES and len(session.offline) == POSE_FRAMES,
+                    f"{len(frames)} frames in the bag, {len(session.offline)} --json records")
+            rejected = [r for r in session.offline.values() if "rejected" in r]
+            require(not rejected, f"stereocal pose rejected frames: {rejected}")
+            note(f"{frames[0][0].width}x{frames[0][0].height} {frames[0][0].encoding}")
+        if not checks.passed(label, setup):
+            return checks.skip(label, "the other checks", "no synthesized session")
+        p = Pose(peer, binary, session)
+        try:
+            pose_checks(checks, peer, rosout, p, session, frames)
+        finally:
+            stop_and_check(checks, peer, p.process, label, p.name, p.namespace)
+
+
+def pose_checks(checks, peer, rosout, p, session, frames):
+    label, fqn = p.label, p.fqn
+    if not discovered(checks, peer, label, p.name, p.namespace):
+        return checks.skip(label, "the other checks", "the node was not discovered")
+
+    # rclpy has no tf2_msgs (no wheel): /tf's type is checked by the name discovery gives;
+    # its messages are received by Cyclone DDS (interop/check_pose_cyclone.py).
+    with checks.check(label, "graph: topics, services and their types (/tf's by name)"):
+        graph_check(peer, p.name, p.namespace, {
+            "publishers": {TARGET_POSE: ["geometry_msgs/msg/PoseStamped"],
+                           WITH_COVARIANCE: ["geometry_msgs/msg/PoseWithCovarianceStamped"],
+                           "/tf": ["tf2_msgs/msg/TFMessage"],
+                           f"{fqn}/annotated_image": ["sensor_msgs/msg/Image"],
+                           f"{fqn}/status": ["std_msgs/msg/String"],
+                           "/rosout": ["rcl_interfaces/msg/Log"],
+                           "/parameter_events": ["rcl_interfaces/msg/ParameterEvent"]},
+            "subscribers": {IMAGE_RAW: ["sensor_msgs/msg/Image"],
+                            CAMERA_INFO: ["sensor_msgs/msg/CameraInfo"]},
+            "services": parameter_services(fqn),
+            "clients": {},
+        })
+
+    with checks.check(label, "~/status: JSON at start-up"):
+        status = peer.wait_until(p.last_status, f"{fqn}/status")
+        require(status["frames"]["received"] == 0 and status["frames"]["poses"] == 0
+                and status["rejections"] == {} and status["last"] is None,
+                f"start-up status {status}")
+    if not checks.passed(label, "~/status: JSON at start-up"):
+        return checks.skip(label, "the other checks", "no ~/status to follow the node by")
+
+    session_check = (f"QoS: reliable and best-effort subscribers get target_pose of "
+                     f"{POSE_FRAMES} frames")
+    answers = {}
+    with checks.check(label, session_check) as note:
+        peer.wait_until(lambda: p.image_pub.get_subscription_count() > 0
+                        and p.info_pub.get_subscription_count() > 0,
+                        "pose_node's image and camera_info subscriptions")
+        for frame in frames:
+            stamp = stamp_of(frame[0])
+            answers[stamp] = p.send_until(
+                frame, lambda: p.received(stamp),
+                "target_pose on both subscribers and target_pose_with_covariance")
+        note(f"received {p.reliable.count} (reliable), {p.sensor.count} (best-effort), "
+             f"{p.with_covariance.count} with covariance")
+    if not checks.passed(label, session_check):
+        return checks.skip(label, "the other checks", "no poses to check")
+
+    with checks.check(label, "target_pose: image stamp and frame_id, against the ground "
+                             f"truth ({TRUTH_DEGREES} deg, {TRUTH_MM} mm)") as note:
+        frame_ids = {stamp_of(image): image.header.frame_id for image, _ in frames}
+        worst_degrees = worst_mm = 0.0
+        for stamp, (reliable, sensor, _) in answers.items():
+            for msg in (reliable, sensor):
+                require(msg.header.frame_id == frame_ids[stamp],
+                        f"frame {stamp}: frame_id {msg.header.frame_id!r}, the image's "
+                        f"{frame_ids[stamp]!r}")
+                require(abs(quaternion_norm(msg.pose.orientation) - 1) < 1e-9,
+                        f"frame {stamp}: |q| = {quaternion_norm(msg.pose.orientation)}")
+            require(reliable.pose == sensor.pose, f"frame {stamp}: the subscribers got "
+                    f"different poses: {reliable.pose} and {sensor.pose}")
+            degrees, mm = truth_error(*pose_of(reliable.pose), session.truth[stamp])
+            require(degrees < TRUTH_DEGREES and mm < TRUTH_MM,
+                    f"frame {stamp}: {degrees:.4f} deg, {mm:.3f} mm from the truth")
+            worst_degrees, worst_mm = max(worst_degrees, degrees), max(worst_mm, mm)
+        note(f"worst {worst_degrees:.4f} deg, {worst_mm:.3f} mm")
+
+    with checks.check(label, f"target_pose: equal to stereocal pose --json "
+                             f"({OFFLINE_TOLERANCE:g})") as note:
+        worst = max(offline_difference(*pose_of(reliable.pose), session.offline[stamp])
+                    for stamp, (reliable, _, _) in answers.items())
+        require(worst <= OFFLINE_TOLERANCE, f"a pose differs from the offline one by {worst:.3g}")
+        note(f"largest difference {worst:.3g}")
+
+    with checks.check(label, "target_pose_with_covariance: the pose, a 36-entry PSD "
+                             "covariance (as --json's)"):
+        for stamp, (reliable, _, with_covariance) in answers.items():
+            require(with_covariance.header == reliable.header
+                    and with_covariance.pose.pose == reliable.pose,
+                    f"frame {stamp}: {with_covariance.header} {with_covariance.pose.pose}, "
+                    f"target_pose {reliable.header} {reliable.pose}")
+            problems = covariance_problems(list(with_covariance.pose.covariance),
+                                           session.offline[stamp])
+            require(not problems, f"frame {stamp}: " + "; ".join(problems))
+
+    with checks.check(label, "~/status: frame counts, transient local to a late subscriber") \
+            as note:
+        # The node publishes its status when its counts change, at most once a second:
+        # once a status counts every frame it received as handled, nothing new is sent,
+        # and a subscriber made now can only get that one from history.
+        def settled():
+            status = p.last_status()
+            counts = status["frames"]
+            return (counts["poses"] >= len(answers) and counts["received"]
+                    == counts["poses"] + counts["rejected"] + counts["dropped"]) and status
+        status = peer.wait_until(settled, lambda: f"a status counting the session's "
+                                 f"{len(answers)} poses; last {p.last_status()}")
+        statuses = p.status.count
+        late = peer.subscribe(String, f"{fqn}/status", STATUS_QOS)
+        peer.wait_until(lambda: late.last and late.last.data == p.status.last.data,
+                        lambda: "the last status on a subscriber created after it was sent; "
+                                f"got {late.count} message(s)")
+        require(p.status.count == statuses, "the node sent a new status meanwhile")
+        require(status["frames"]["poses"] == p.reliable.count,
+                f"status counts {status['frames']['poses']} poses, target_pose brought "
+                f"{p.reliable.count}")
+        note(f"frames {status['frames']}")
+
+    with checks.check(label, "bad input: K[0] = 0 and no target publish no pose, counted "
+                             "in rejections") as note:
+        blank = np.full((frames[0][0].height, frames[0][0].step), 200, np.uint8)
+        k = list(frames[0][1].k)
+        uncalibrated = restamped(frames[0], 100, k=[0.0] + k[1:])
+        no_target = restamped(frames[0], 101, image=blank)
+        before = dict(p.last_status()["rejections"])
+        for frame, kind, what in ((uncalibrated, "camera_info", "an uncalibrated camera_info"),
+                                  (no_target, "not_visible", "an image without the target")):
+            p.send_until(frame, lambda: p.rejections(kind) > before.get(kind, 0),
+                         f"rejections.{kind} counting {what}")
+        # Frames are handled in order: once a later frame's pose is here, a pose of the
+        # bad ones would be too.
+        after = restamped(frames[0], 102)
+        p.send_until(after, lambda: p.received(stamp_of(after[0])), "the pose of the next frame")
+        bad = {stamp_of(uncalibrated[0]), stamp_of(no_target[0])}
+        published = [stamp_of(m) for inbox in (p.reliable, p.sensor, p.with_covariance)
+                     for m in inbox.messages if stamp_of(m) in bad]
+        require(not published, f"poses published for bad frames at {published}")
+        status = p.last_status()
+        require(status["last_rejection"], f"no last_rejection in {status}")
+        note(f"rejections {status['rejections']}")
+
+    with checks.check(label, "/rosout: 'no pose' warning with the logger's name"):
+        warning = peer.wait_until(
+            lambda: next((m for m in rosout.messages if m.name == "camera.pose_node"
+                          and "no pose" in m.msg and "uncalibrated" in m.msg), None),
+            "a /rosout record of logger camera.pose_node saying 'no pose' for the "
+            "uncalibrated camera_info", timeout=20)
+        require(warning.level == Log.WARN, f"level {warning.level}, not WARN: {warning.msg}")
+
+    # The node reads every parameter once, at start-up: all are read-only.
+    common_parameter_checks(
+        checks, label, p.params, p.documented, read_only=list(p.documented),
+        constraints={"pattern": ["chessboard", "charuco"]},
+        refuse=["queue_size", "pattern", "target_frame"])
+
+    with checks.check(label, "parameters: max_reprojection_error -1 (out of range) refused, "
+                             "at start-up too") as note:
+        [descriptor] = p.params.describe(["max_reprojection_error"])
+        [described] = descriptor.floating_point_range
+        require(not described.from_value <= -1.0 <= described.to_value,
+                f"-1 is within the described range {described}")
+        # While the node runs the parameter is read-only, which is the reason given.
+        [result] = p.params.set({"max_reprojection_error": -1.0})
+        require(not result.successful and result.reason.strip(),
+                f"successful={result.successful}, reason {result.reason!r}")
+        now = p.params.get(["max_reprojection_error"])
+        require(now == [2.0], f"max_reprojection_error is {now} after a refused set, not [2.0]")
+        # The range itself is enforced on the values a node starts with.
+        refused = NodeProcess([*p.command, "-p", "max_reprojection_error:=-1.0"], peer.domain)
+        try:
+            code = refused.process.wait(timeout=TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            code = None
+        refused.stop()
+        require(code not in (None, 0) and "max_reprojection_error" in refused.logs()
+                and "out of range" in refused.logs(),
+                lambda: "pose_node started with max_reprojection_error:=-1.0: "
+                        + ("still running" if code is None else f"exit code {code}")
+                        + f"\n{refused.logs()[-2000:]}")
+        note(f"described range {described.from_value:g}..{described.to_value:g}; refused "
+             f"while running ({result.reason.split(':')[0]}), at start-up with exit code "
+             f"{code}: {refused.logs().strip().splitlines()[-1]!r}")
+
+    describe_all_check(checks, label, p.params)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rectify-node", default=str(ROOT / "target" / "debug" / "rectify_node"))
     parser.add_argument("--calibrate-node",
                         default=str(ROOT / "target" / "debug" / "calibrate_node"))
+    parser.add_argument("--pose-node", default=str(ROOT / "target" / "debug" / "pose_node"))
     parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
-    parser.add_argument("--only", choices=("rectify", "calibrate"))
+    parser.add_argument("--only", choices=("rectify", "calibrate", "pose"))
     parser.add_argument("--fastdds-socket-buffer", type=int, default=8 * 1024 * 1024,
                         help="bytes of Fast DDS's UDP socket buffers; 0 keeps its default")
     args = parser.parse_args()
-    for binary in (args.rectify_node, args.calibrate_node, args.stereocal):
+    for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.stereocal):
         if not Path(binary).exists():
             raise SystemExit(f"{binary} not found; build it with `cargo build --bin rectify_node "
-                             "--bin calibrate_node --bin stereocal`")
+                             "--bin calibrate_node --bin pose_node --bin stereocal`")
 
     def run(checks):
         lease = DomainLease()
@@ -698,6 +1031,8 @@ def main():
                 check_rectify(checks, peer, rosout, args.rectify_node)
             if args.only in (None, "calibrate"):
                 check_calibrate(checks, peer, rosout, args.calibrate_node, args.stereocal)
+            if args.only in (None, "pose"):
+                check_pose(checks, peer, rosout, args.pose_node, args.stereocal)
         finally:
             peer.close()
             lease.release()

@@ -1,8 +1,9 @@
 """ROS 2 over Cyclone DDS's Python binding, for the checks that talk to stereocal's nodes.
 
-IDL types declared with ROS 2's DDS type names (such as `sensor_msgs::msg::dds_::Image_`)
-so that Cyclone DDS reads and writes the same topics as a ROS 2 node, the QoS they use
-(reliable, plain CDR as ROS 2 uses), and stopping a node process with SIGTERM.
+IDL types declared with ROS 2's DDS type names (such as `sensor_msgs::msg::dds_::Image_`,
+and `tf2_msgs::msg::dds_::TFMessage_`, which no rclpy wheel provides) so that Cyclone
+DDS reads and writes the same topics as a ROS 2 node, the QoS they use (reliable, plain
+CDR as ROS 2 uses), and stopping a node process with SIGTERM.
 """
 
 import signal
@@ -73,6 +74,66 @@ class CameraInfo(IdlStruct, typename="sensor_msgs::msg::dds_::CameraInfo_"):
 @dataclass
 class String(IdlStruct, typename="std_msgs::msg::dds_::String_"):
     data: str
+
+
+@final
+@dataclass
+class Point(IdlStruct, typename="geometry_msgs::msg::dds_::Point_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@final
+@dataclass
+class Vector3(IdlStruct, typename="geometry_msgs::msg::dds_::Vector3_"):
+    x: float64
+    y: float64
+    z: float64
+
+
+@final
+@dataclass
+class Quaternion(IdlStruct, typename="geometry_msgs::msg::dds_::Quaternion_"):
+    x: float64
+    y: float64
+    z: float64
+    w: float64
+
+
+@final
+@dataclass
+class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
+    position: Point
+    orientation: Quaternion
+
+
+@final
+@dataclass
+class PoseStamped(IdlStruct, typename="geometry_msgs::msg::dds_::PoseStamped_"):
+    header: Header
+    pose: Pose
+
+
+@final
+@dataclass
+class Transform(IdlStruct, typename="geometry_msgs::msg::dds_::Transform_"):
+    translation: Vector3
+    rotation: Quaternion
+
+
+@final
+@dataclass
+class TransformStamped(IdlStruct, typename="geometry_msgs::msg::dds_::TransformStamped_"):
+    header: Header
+    child_frame_id: str
+    transform: Transform
+
+
+@final
+@dataclass
+class TFMessage(IdlStruct, typename="tf2_msgs::msg::dds_::TFMessage_"):
+    transforms: sequence[TransformStamped]
 
 
 def fail(message):
