@@ -117,11 +117,15 @@ pub fn refine(
                 let decrease = lin.cost - next.cost;
                 pose = candidate;
                 lin = next;
-                lambda = (lambda / 10.0).max(1e-12);
+                // Damping never vanishes: far from the minimum, a pure Gauss-Newton step
+                // overshoots and several refused steps would follow.
+                lambda = (lambda / 10.0).max(1e-6);
                 if decrease <= RELATIVE_TOLERANCE * lin.cost {
                     break;
                 }
             }
+            // A step that changes the error by no more than rounding: at the minimum.
+            Some(next) if next.cost - lin.cost <= RELATIVE_TOLERANCE * lin.cost => break,
             _ => {
                 lambda *= 10.0;
                 if lambda > 1e12 {
