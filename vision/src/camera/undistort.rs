@@ -242,7 +242,8 @@ fn branch_end(f: impl Fn(f64) -> (f64, f64), limit: f64) -> f64 {
 /// when `f(end)` falls short of `target`.
 fn solve_below(f: &dyn Fn(f64) -> (f64, f64), target: f64, end: f64) -> Option<f64> {
     let (value_end, _) = f(end);
-    if !(value_end >= target) {
+    // NaN included: a branch that ends short of the target has no preimage there.
+    if value_end.is_nan() || value_end < target {
         return ((value_end - target).abs() <= 1e-12 * target.max(1.0)).then_some(end);
     }
     let (mut lo, mut hi) = (0.0, end);
