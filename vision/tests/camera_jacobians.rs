@@ -278,7 +278,7 @@ fn pose_only_projection_matches_the_full_one() {
         let full = camera
             .project_target_point_with_jacobians(&pose, &point)
             .unwrap();
-        let (pixel, jacobian) = camera.project_with_pose_jacobian(&pose, &point).unwrap();
+        let (pixel, jacobian) = camera.project_with_pose_jacobian(&(pose * point)).unwrap();
         assert!((pixel - full.projection.pixel).norm() < 1e-12, "{model:?}");
         assert!(
             (jacobian - full.d_pixel_d_pose).abs().max() < 1e-9,

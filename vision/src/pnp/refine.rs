@@ -1,7 +1,7 @@
 //! Levenberg-Marquardt refinement of a pose on the pixel reprojection error, through
 //! the full camera model (distortion included).
 
-use nalgebra::{Isometry3, Matrix6, Vector2, Vector6};
+use nalgebra::{Isometry3, Matrix6, Point3, Vector2, Vector6};
 
 use super::{Correspondences, PnpError};
 use crate::camera::{CameraModel, retract_pose};
@@ -50,12 +50,15 @@ fn linearize(
         jtj: Matrix6::zeros(),
         jtr: Vector6::zeros(),
     };
+    let rotation = camera_from_target.rotation.to_rotation_matrix();
+    let translation = camera_from_target.translation.vector;
     for (point, pixel) in correspondences
         .target_points
         .iter()
         .zip(&correspondences.pixels)
     {
-        let (projected, j) = camera.project_with_pose_jacobian(camera_from_target, point)?;
+        let in_camera = Point3::from(rotation * point.coords + translation);
+        let (projected, j) = camera.project_with_pose_jacobian(&in_camera)?;
         let r = projected - pixel;
         lin.jtj += j.transpose() * j;
         lin.jtr += j.transpose() * r;
@@ -148,7 +151,7 @@ pub fn refine(
 mod tests {
     use super::*;
     use crate::camera::{Distortion, DistortionModel, Intrinsics};
-    use nalgebra::{Point2, Point3, Translation3, UnitQuaternion, Vector3};
+    use nalgebra::{Point2, Translation3, UnitQuaternion, Vector3};
 
     fn camera() -> CameraModel {
         CameraModel {
