@@ -185,3 +185,43 @@ fn undistort_pixel_is_the_distortion_free_image_of_the_same_ray() {
         .pixel_from_normalized(&Vector2::new(point.x / point.z, point.y / point.z));
     assert!((ideal - expected).norm() < 1e-9);
 }
+
+/// The undistorter of many points finds exactly what `undistort` finds point by point,
+/// over whole images of strong lenses and beyond a folding profile's end.
+#[test]
+fn the_undistorter_agrees_with_undistort() {
+    let folding = Distortion::PlumbBob {
+        coeffs: [-0.4, 0.0, 0.0, 0.0, 0.0],
+    };
+    for distortion in [
+        strong_plumb_bob().distortion,
+        strong_rational().distortion,
+        strong_fisheye().distortion,
+        folding,
+    ] {
+        let undistorter = distortion.undistorter();
+        let mut compared = 0;
+        for i in -60..=60 {
+            for j in -60..=60 {
+                let p = Vector2::new(f64::from(i) * 0.025, f64::from(j) * 0.02);
+                let one = distortion.undistort(&p);
+                let many = undistorter.undistort(&p);
+                match (one, many) {
+                    (Some(a), Some(b)) => {
+                        assert!(
+                            (a - b).norm() <= 1e-12 * a.norm().max(1.0),
+                            "{distortion:?} at {p}: {a} against {b}"
+                        );
+                        compared += 1;
+                    }
+                    (None, None) => {}
+                    _ => panic!("{distortion:?} at {p}: {one:?} against {many:?}"),
+                }
+            }
+        }
+        assert!(
+            compared > 1000,
+            "{distortion:?}: {compared} points compared"
+        );
+    }
+}

@@ -15,6 +15,7 @@ pub use intrinsics::Intrinsics;
 pub use new_camera_matrix::{NewCameraMatrixError, Roi, optimal_new_camera_matrix};
 pub(crate) use new_camera_matrix::{Rectangle, fisheye_new_intrinsics, undistorted_rectangles};
 pub use projection::{Projection, TargetProjection, retract_pose};
+pub use undistort::Undistorter;
 
 use nalgebra::{Point2, Point3, Vector2, Vector3};
 
@@ -55,6 +56,20 @@ impl CameraModel {
         let distorted = self.intrinsics.normalized_from_pixel(pixel);
         let undistorted = self.distortion.undistort(&distorted)?;
         Some(Vector3::new(undistorted.x, undistorted.y, 1.0))
+    }
+
+    /// [`CameraModel::unproject`] of many pixels, the distortion model's invertible
+    /// range found once for all of them.
+    pub fn unproject_all(&self, pixels: &[Point2<f64>]) -> Vec<Option<Vector3<f64>>> {
+        let undistorter = self.distortion.undistorter();
+        pixels
+            .iter()
+            .map(|pixel| {
+                let distorted = self.intrinsics.normalized_from_pixel(pixel);
+                let undistorted = undistorter.undistort(&distorted)?;
+                Some(Vector3::new(undistorted.x, undistorted.y, 1.0))
+            })
+            .collect()
     }
 
     /// Where the ideal, distortion-free pinhole camera with the same intrinsics sees

@@ -34,24 +34,48 @@ impl Distortion {
     /// radial profile folds back, beyond 90 degrees off axis for equidistant (no ray in
     /// front of the camera), or for non-finite input.
     pub fn undistort(&self, distorted: &Vector2<f64>) -> Option<Vector2<f64>> {
+        self.undistort_on_branch(distorted, None)
+    }
+
+    /// An undistorter of many points: [`Distortion::undistort`] with the end of the
+    /// model's invertible range found once, not per point.
+    pub fn undistorter(&self) -> Undistorter<'_> {
+        let branch_end = match self {
+            Self::Equidistant { .. } => {
+                branch_end(|t| self.equidistant_profile(t), std::f64::consts::FRAC_PI_2)
+            }
+            Self::PlumbBob { .. } | Self::RationalPolynomial { .. } => {
+                branch_end(|r| self.radial_profile(r), PINHOLE_RADIUS_LIMIT)
+            }
+        };
+        Undistorter {
+            distortion: self,
+            branch_end,
+        }
+    }
+
+    /// [`Distortion::undistort`], solving the radial equation below `branch_end` when
+    /// it is known, else scanning for the branch from zero.
+    fn undistort_on_branch(
+        &self,
+        distorted: &Vector2<f64>,
+        branch_end: Option<f64>,
+    ) -> Option<Vector2<f64>> {
+        let solve = |f: &dyn Fn(f64) -> (f64, f64), target: f64, limit: f64| match branch_end {
+            Some(end) => solve_below(f, target, end),
+            None => solve_first_branch(f, target, limit),
+        };
         if !distorted.x.is_finite() || !distorted.y.is_finite() {
             return None;
         }
         let rd = distorted.norm();
         match self {
-            Self::Equidistant { coeffs } => {
+            Self::Equidistant { .. } => {
                 if rd == 0.0 {
                     return Some(*distorted);
                 }
-                let theta_d = |t: f64| {
-                    let t2 = t * t;
-                    let [k1, k2, k3, k4] = *coeffs;
-                    let value = t * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))));
-                    let slope =
-                        1.0 + t2 * (3.0 * k1 + t2 * (5.0 * k2 + t2 * (7.0 * k3 + t2 * 9.0 * k4)));
-                    (value, slope)
-                };
-                let theta = solve_first_branch(theta_d, rd, std::f64::consts::FRAC_PI_2)?;
+                let theta_d = |t: f64| self.equidistant_profile(t);
+                let theta = solve(&theta_d, rd, std::f64::consts::FRAC_PI_2)?;
                 if theta >= std::f64::consts::FRAC_PI_2 {
                     return None;
                 }
@@ -66,7 +90,7 @@ impl Distortion {
                 let r = if rd == 0.0 {
                     0.0
                 } else {
-                    solve_first_branch(radial, rd, PINHOLE_RADIUS_LIMIT)?
+                    solve(&radial, rd, PINHOLE_RADIUS_LIMIT)?
                 };
                 let start = if rd == 0.0 {
                     *distorted
@@ -80,6 +104,18 @@ impl Distortion {
                     .or_else(|| self.refine_pinhole(distorted, *distorted))
             }
         }
+    }
+
+    /// The equidistant model's `theta_d(theta)` and its slope.
+    fn equidistant_profile(&self, t: f64) -> (f64, f64) {
+        let Self::Equidistant { coeffs } = self else {
+            return (f64::NAN, f64::NAN);
+        };
+        let t2 = t * t;
+        let [k1, k2, k3, k4] = *coeffs;
+        let value = t * (1.0 + t2 * (k1 + t2 * (k2 + t2 * (k3 + t2 * k4))));
+        let slope = 1.0 + t2 * (3.0 * k1 + t2 * (5.0 * k2 + t2 * (7.0 * k3 + t2 * 9.0 * k4)));
+        (value, slope)
     }
 
     /// Radial profile of a pinhole model, `f(r) = r * radial(r^2)`, and its slope
@@ -156,10 +192,92 @@ impl Distortion {
     }
 }
 
+/// [`Distortion::undistort`] for many points of one model.
+pub struct Undistorter<'a> {
+    distortion: &'a Distortion,
+    branch_end: f64,
+}
+
+impl Undistorter<'_> {
+    /// The undistorted normalized coordinate whose distortion is `distorted`, exactly
+    /// as [`Distortion::undistort`] finds it.
+    pub fn undistort(&self, distorted: &Vector2<f64>) -> Option<Vector2<f64>> {
+        self.distortion
+            .undistort_on_branch(distorted, Some(self.branch_end))
+    }
+}
+
+/// Where the first increasing branch of `f` (`f(0) = 0`, slope 1) ends within
+/// `[0, limit]`: the last point of positive slope before the slope first stops being
+/// positive, found by the same geometric scan as [`solve_first_branch`] and bisection;
+/// `limit` when the slope stays positive.
+fn branch_end(f: impl Fn(f64) -> (f64, f64), limit: f64) -> f64 {
+    let mut lo = 0.0;
+    let mut t = SCAN_START.min(limit);
+    loop {
+        let slope = f(t).1;
+        if slope.is_nan() || slope <= 0.0 {
+            break;
+        }
+        if t >= limit {
+            return limit;
+        }
+        lo = t;
+        t = (t * SCAN_RATIO).min(limit);
+    }
+    let mut hi = t;
+    while hi - lo > 4.0 * f64::EPSILON * hi {
+        let mid = 0.5 * (lo + hi);
+        if f(mid).1 > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    lo
+}
+
+/// Solves `f(t) = target` (with `target > 0`) on `[0, end]`, where `f` increases from
+/// `f(0) = 0`: safeguarded Newton from `t = target` (the slope at zero is 1). `None`
+/// when `f(end)` falls short of `target`.
+fn solve_below(f: &dyn Fn(f64) -> (f64, f64), target: f64, end: f64) -> Option<f64> {
+    let (value_end, _) = f(end);
+    // NaN included: a branch that ends short of the target has no preimage there.
+    if value_end.is_nan() || value_end < target {
+        return ((value_end - target).abs() <= 1e-12 * target.max(1.0)).then_some(end);
+    }
+    let (mut lo, mut hi) = (0.0, end);
+    let mut t = target.min(end);
+    for _ in 0..200 {
+        let (value, slope) = f(t);
+        if value == target {
+            return Some(t);
+        }
+        if value < target {
+            lo = t;
+        } else {
+            hi = t;
+        }
+        let newton = t - (value - target) / slope;
+        if newton > lo && newton < hi && (newton - t).abs() <= 2.0 * f64::EPSILON * t {
+            return Some(newton);
+        }
+        if hi - lo <= 4.0 * f64::EPSILON * hi {
+            return Some(t);
+        }
+        t = if newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+    }
+    Some(t)
+}
+
 /// Solves `f(t) = target` (with `target > 0`) on the first increasing branch of `f`,
 /// `f(0) = 0`, within `[0, limit]`; `f` returns the value and the slope. `None` when the
 /// branch ends (slope not positive) or the limit is reached before `target`.
-fn solve_first_branch(f: impl Fn(f64) -> (f64, f64), target: f64, limit: f64) -> Option<f64> {
+fn solve_first_branch(f: &dyn Fn(f64) -> (f64, f64), target: f64, limit: f64) -> Option<f64> {
     // Bracket: `lo` is on the branch with f(lo) < target; `hi` either has
     // f(hi) >= target on the branch or lies beyond the end of the branch.
     let mut lo = 0.0;

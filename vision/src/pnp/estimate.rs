@@ -133,6 +133,11 @@ pub fn estimate_pose(
     let mut refined: Vec<(Refined, Solver)> = Vec::new();
     let mut last_error = None;
     for (start, solver) in candidates.drain(..) {
+        if let Some((first, _)) = refined.first()
+            && !competes(camera, &used, &start, first, options.pixel_noise_px)
+        {
+            continue;
+        }
         match refine(camera, &used, &start) {
             Ok(r) if is_finite(&r) => refined.push((r, solver)),
             Ok(_) => last_error = Some(PnpError::NoSolution("refinement diverged".into())),
@@ -256,6 +261,34 @@ fn starting_poses(c: &Correspondences, shape: Shape) -> Vec<(Isometry3<f64>, Sol
     epnp(&c.target_points, &c.normalized)
         .map(|pose| vec![(pose, Solver::Epnp)])
         .unwrap_or_default()
+}
+
+/// Whether a further starting pose could end as a competitor of the refined `first`:
+/// unless its pixel error is already a hundred times `first`'s error plus the noise's,
+/// refining it is worth the time. The starts after the first are IPPE's second pose of
+/// a plane or SQPnP's further minima: each approximates its minimum closely whenever
+/// that minimum competes (the planar ambiguity arises for small, distant targets, where
+/// IPPE is near exact), so a start that far off has no competing minimum nearby.
+fn competes(
+    camera: &CameraModel,
+    c: &Correspondences,
+    start: &Isometry3<f64>,
+    first: &Refined,
+    pixel_noise_px: f64,
+) -> bool {
+    let noise = c.len() as f64 * pixel_noise_px.powi(2);
+    let first_sse = first.rms_px.powi(2) * c.len() as f64;
+    let start_sse: Option<f64> = c
+        .target_points
+        .iter()
+        .zip(&c.pixels)
+        .map(|(point, pixel)| {
+            camera
+                .project(&(start * point))
+                .map(|projected| (projected - pixel).norm_squared())
+        })
+        .sum();
+    start_sse.is_none_or(|sse| sse <= 100.0 * (first_sse + noise))
 }
 
 fn is_finite(r: &Refined) -> bool {

@@ -67,13 +67,13 @@ impl Correspondences {
         {
             return Err(PnpError::NonFinite("image points"));
         }
-        let normalized = pixels
-            .iter()
+        let normalized = camera
+            .unproject_all(pixels)
+            .into_iter()
+            .zip(pixels)
             .enumerate()
-            .map(|(index, pixel)| {
-                camera
-                    .unproject(pixel)
-                    .filter(|ray| ray.iter().all(|v| v.is_finite()))
+            .map(|(index, (ray, pixel))| {
+                ray.filter(|ray| ray.iter().all(|v| v.is_finite()))
                     .map(|ray| Point2::new(ray.x, ray.y))
                     .ok_or(PnpError::Unprojectable {
                         index,

@@ -1,10 +1,18 @@
 //! Levenberg-Marquardt refinement of a pose on the pixel reprojection error, through
 //! the full camera model (distortion included).
+//!
+//! The pose is perturbed about the target's centroid in the camera frame `c`:
+//! `X -> exp(omega) (X - c) + c + tau`. Turning a distant target about the camera's
+//! origin would swing it sideways by `omega x c` as well, coupling rotation with
+//! translation; about its own centroid the two are nearly independent, and the error's
+//! valley is straight enough for Gauss-Newton steps to follow it.
 
-use nalgebra::{Isometry3, Matrix6, Vector2, Vector6};
+use nalgebra::{
+    Isometry3, Matrix2x6, Matrix6, Point3, Translation3, UnitQuaternion, Vector2, Vector3, Vector6,
+};
 
 use super::{Correspondences, PnpError};
-use crate::camera::{CameraModel, retract_pose};
+use crate::camera::CameraModel;
 
 /// Iterations after which refinement stops even if still improving.
 const MAX_ITERATIONS: usize = 100;
@@ -30,8 +38,8 @@ pub struct Refined {
     pub iterations: usize,
 }
 
-/// The squared error, `J^T J` and `J^T r` of a pose; `None` when a point is not in
-/// front of the camera.
+/// The squared error, `J^T J` and `J^T r` of a pose, for the perturbation about
+/// `center`; `None` when a point is not in front of the camera.
 struct Linearization {
     residuals: Vec<Vector2<f64>>,
     cost: f64,
@@ -43,6 +51,7 @@ fn linearize(
     camera: &CameraModel,
     correspondences: &Correspondences,
     camera_from_target: &Isometry3<f64>,
+    center: &Vector3<f64>,
 ) -> Option<Linearization> {
     let mut lin = Linearization {
         residuals: Vec::with_capacity(correspondences.len()),
@@ -50,12 +59,20 @@ fn linearize(
         jtj: Matrix6::zeros(),
         jtr: Vector6::zeros(),
     };
+    let rotation = camera_from_target.rotation.to_rotation_matrix();
+    let translation = camera_from_target.translation.vector;
     for (point, pixel) in correspondences
         .target_points
         .iter()
         .zip(&correspondences.pixels)
     {
-        let (projected, j) = camera.project_with_pose_jacobian(camera_from_target, point)?;
+        let in_camera = Point3::from(rotation * point.coords + translation);
+        let (projected, d_pixel_d_point) = camera.project_with_point_jacobian(&in_camera)?;
+        // d(exp(omega) (X - c) + c + tau) / d(omega, tau) at 0 is [-[X - c]x, I].
+        let mut j = Matrix2x6::zeros();
+        j.fixed_view_mut::<2, 3>(0, 0)
+            .copy_from(&(d_pixel_d_point * -(in_camera.coords - center).cross_matrix()));
+        j.fixed_view_mut::<2, 3>(0, 3).copy_from(&d_pixel_d_point);
         let r = projected - pixel;
         lin.jtj += j.transpose() * j;
         lin.jtr += j.transpose() * r;
@@ -63,6 +80,33 @@ fn linearize(
         lin.residuals.push(r);
     }
     Some(lin)
+}
+
+/// The target's centroid in the camera frame.
+fn centroid(
+    correspondences: &Correspondences,
+    camera_from_target: &Isometry3<f64>,
+) -> Vector3<f64> {
+    let sum = correspondences
+        .target_points
+        .iter()
+        .fold(Vector3::zeros(), |acc, p| acc + p.coords);
+    camera_from_target * Point3::from(sum / correspondences.len().max(1) as f64).coords
+}
+
+/// Applies `delta = [omega; tau]` about `center`: `X -> exp(omega) (X - c) + c + tau`.
+fn retract_about(
+    camera_from_target: &Isometry3<f64>,
+    delta: &Vector6<f64>,
+    center: &Vector3<f64>,
+) -> Isometry3<f64> {
+    let rotation = UnitQuaternion::from_scaled_axis(Vector3::new(delta[0], delta[1], delta[2]));
+    let tau = Vector3::new(delta[3], delta[4], delta[5]);
+    let update = Isometry3::from_parts(
+        Translation3::from(center + tau - rotation * center),
+        rotation,
+    );
+    update * camera_from_target
 }
 
 /// Refines `initial` to the nearest minimum of the squared pixel reprojection error
@@ -90,10 +134,12 @@ pub fn refine(
             .count()
     };
     let mut pose = *initial;
-    let mut lin = linearize(camera, correspondences, &pose).ok_or(PnpError::BehindCamera {
-        count: behind(&pose),
-        total: correspondences.len(),
-    })?;
+    let mut center = centroid(correspondences, &pose);
+    let mut lin =
+        linearize(camera, correspondences, &pose, &center).ok_or(PnpError::BehindCamera {
+            count: behind(&pose),
+            total: correspondences.len(),
+        })?;
     let mut lambda = 1e-3;
     let mut iterations = 0;
     while iterations < MAX_ITERATIONS {
@@ -111,17 +157,23 @@ pub fn refine(
         if predicted <= RELATIVE_TOLERANCE * lin.cost || step.norm() < STEP_TOLERANCE {
             break;
         }
-        let candidate = retract_pose(&pose, &step);
-        match linearize(camera, correspondences, &candidate) {
+        let candidate = retract_about(&pose, &step, &center);
+        let candidate_center = centroid(correspondences, &candidate);
+        match linearize(camera, correspondences, &candidate, &candidate_center) {
             Some(next) if next.cost <= lin.cost => {
                 let decrease = lin.cost - next.cost;
                 pose = candidate;
+                center = candidate_center;
                 lin = next;
-                lambda = (lambda / 10.0).max(1e-12);
+                // Damping never vanishes: far from the minimum, a pure Gauss-Newton step
+                // overshoots and several refused steps would follow.
+                lambda = (lambda / 10.0).max(1e-6);
                 if decrease <= RELATIVE_TOLERANCE * lin.cost {
                     break;
                 }
             }
+            // A step that changes the error by no more than rounding: at the minimum.
+            Some(next) if next.cost - lin.cost <= RELATIVE_TOLERANCE * lin.cost => break,
             _ => {
                 lambda *= 10.0;
                 if lambda > 1e12 {
@@ -131,11 +183,23 @@ pub fn refine(
         }
     }
     let rms_px = (lin.cost / correspondences.len() as f64).sqrt();
+    // The information matrix callers read is for the perturbation about the camera's
+    // origin: `tau_origin = tau_center + c x omega`.
+    let origin_from_center = {
+        let mut m = Matrix6::identity();
+        m.fixed_view_mut::<3, 3>(3, 0)
+            .copy_from(&center.cross_matrix());
+        m
+    };
+    let center_from_origin = origin_from_center
+        .try_inverse()
+        .unwrap_or(Matrix6::identity());
+    let information = center_from_origin.transpose() * lin.jtj * center_from_origin;
     Ok(Refined {
         camera_from_target: pose,
         residuals: lin.residuals,
         rms_px,
-        information: lin.jtj,
+        information,
         iterations,
     })
 }
@@ -144,7 +208,7 @@ pub fn refine(
 mod tests {
     use super::*;
     use crate::camera::{Distortion, DistortionModel, Intrinsics};
-    use nalgebra::{Point2, Point3, Translation3, UnitQuaternion, Vector3};
+    use nalgebra::{Point2, Translation3, UnitQuaternion, Vector3};
 
     fn camera() -> CameraModel {
         CameraModel {
