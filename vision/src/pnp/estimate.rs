@@ -95,9 +95,9 @@ pub struct PoseEstimate {
 
 /// Estimates `camera_from_target` from 4 or more correspondences seen by `camera`.
 ///
-/// Planar targets start from both IPPE poses, others from SQPnP's minima (SQPnP, then
-/// EPnP, when those find nothing); every start is refined on the pixel error through
-/// the full camera model and the best is kept. The pose is refused, with the reason, when the points
+/// Planar targets start from both IPPE poses and SQPnP's minima, others from SQPnP's
+/// minima (EPnP when those find nothing); every distinct start is refined on the pixel
+/// error through the full camera model and the best is kept. The pose is refused, with the reason, when the points
 /// are degenerate (coincident or on one line), the pose is not determined, points
 /// would be behind the camera, the error is above `options.max_rms_px`, or a distinct
 /// second pose of a planar target explains the pixels within
@@ -133,11 +133,6 @@ pub fn estimate_pose(
     let mut refined: Vec<(Refined, Solver)> = Vec::new();
     let mut last_error = None;
     for (start, solver) in candidates.drain(..) {
-        if let Some((first, _)) = refined.first()
-            && !competes(camera, &used, &start, first, options.pixel_noise_px)
-        {
-            continue;
-        }
         match refine(camera, &used, &start) {
             Ok(r) if is_finite(&r) => refined.push((r, solver)),
             Ok(_) => last_error = Some(PnpError::NoSolution("refinement diverged".into())),
@@ -240,55 +235,46 @@ impl Shape {
 }
 
 /// The starting poses for a target of this shape: both IPPE poses of a planar target
-/// (the two minima a plane can have), SQPnP's minima otherwise; SQPnP, then EPnP, when
-/// the first choice finds nothing.
+/// and SQPnP's minima (for any target); EPnP's pose when none of those is found. A
+/// start that nearly repeats an earlier one is left out: it would refine to the same
+/// minimum.
 fn starting_poses(c: &Correspondences, shape: Shape) -> Vec<(Isometry3<f64>, Solver)> {
+    let mut starts = Vec::new();
     if shape == Shape::Planar
         && let Ok(solutions) = ippe(&c.target_points, &c.normalized)
     {
-        let mut starts = vec![(solutions.best, Solver::Ippe)];
+        starts.push((solutions.best, Solver::Ippe));
         if solutions.second_rms.is_finite() {
             starts.push((solutions.second, Solver::Ippe));
         }
-        return starts;
     }
     if let Ok(minima) = sqpnp(&c.target_points, &c.normalized) {
-        return minima
-            .into_iter()
-            .map(|m| (m.camera_from_target, Solver::Sqpnp))
-            .collect();
+        starts.extend(
+            minima
+                .into_iter()
+                .map(|m| (m.camera_from_target, Solver::Sqpnp)),
+        );
     }
-    epnp(&c.target_points, &c.normalized)
-        .map(|pose| vec![(pose, Solver::Epnp)])
-        .unwrap_or_default()
+    if starts.is_empty()
+        && let Ok(pose) = epnp(&c.target_points, &c.normalized)
+    {
+        starts.push((pose, Solver::Epnp));
+    }
+    let mut distinct: Vec<(Isometry3<f64>, Solver)> = Vec::with_capacity(starts.len());
+    for (pose, solver) in starts {
+        if !distinct.iter().any(|(kept, _)| same_start(kept, &pose)) {
+            distinct.push((pose, solver));
+        }
+    }
+    distinct
 }
 
-/// Whether a further starting pose could end as a competitor of the refined `first`:
-/// unless its pixel error is already a hundred times `first`'s error plus the noise's,
-/// refining it is worth the time. The starts after the first are IPPE's second pose of
-/// a plane or SQPnP's further minima: each approximates its minimum closely whenever
-/// that minimum competes (the planar ambiguity arises for small, distant targets, where
-/// IPPE is near exact), so a start that far off has no competing minimum nearby.
-fn competes(
-    camera: &CameraModel,
-    c: &Correspondences,
-    start: &Isometry3<f64>,
-    first: &Refined,
-    pixel_noise_px: f64,
-) -> bool {
-    let noise = c.len() as f64 * pixel_noise_px.powi(2);
-    let first_sse = first.rms_px.powi(2) * c.len() as f64;
-    let start_sse: Option<f64> = c
-        .target_points
-        .iter()
-        .zip(&c.pixels)
-        .map(|(point, pixel)| {
-            camera
-                .project(&(start * point))
-                .map(|projected| (projected - pixel).norm_squared())
-        })
-        .sum();
-    start_sse.is_none_or(|sse| sse <= 100.0 * (first_sse + noise))
+/// Whether two starting poses are so close (a hundredth of a degree, a ten-thousandth
+/// of the distance) that they refine to the same minimum.
+fn same_start(a: &Isometry3<f64>, b: &Isometry3<f64>) -> bool {
+    let distance = a.translation.vector.norm().max(f64::MIN_POSITIVE);
+    a.rotation.angle_to(&b.rotation) < 1e-2_f64.to_radians()
+        && (a.translation.vector - b.translation.vector).norm() < 1e-4 * distance
 }
 
 fn is_finite(r: &Refined) -> bool {
