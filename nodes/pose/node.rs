@@ -136,6 +136,7 @@ impl Worker for PoseWorker {
         let (Some(image), Some(info)) = (work.frames.first(), work.latched.first()) else {
             return;
         };
+        let started = Instant::now();
         let (outcome, times) = self.stage.estimate(image, info);
         let header = Header {
             stamp: image.header.stamp,
@@ -159,8 +160,8 @@ impl Worker for PoseWorker {
             ),
         }
         self.publish_annotated(image, &outcome);
-        self.status
-            .record(FrameRecord::new(&image.header.stamp, &outcome), kind, times);
+        let record = FrameRecord::new(&image.header.stamp, &outcome);
+        self.status.record(record, kind, times, started.elapsed());
     }
 
     fn poll(&mut self, stats: &FrameStats) {

@@ -4,7 +4,9 @@
 //! `{"frames": {"received", "poses", "rejected", "dropped", "unpaired"}, "rejections":
 //! {"<kind>": count, ...}, "last_rejection" (the newest reason, or null), "last"
 //! (the last frame's record as `stereocal pose --json` prints it, or null), "latency_ms":
-//! {"detection", "pose"} (medians over the last 100 frames, or null)}`.
+//! {"detection", "pose", "frame"} (medians over the last 100 frames, or null: finding the
+//! corners, solving the pose, and the whole frame from decoding the image to the last
+//! publication)}`.
 
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Duration;
@@ -25,7 +27,7 @@ pub struct PoseStatus {
     last_rejection: Option<String>,
     last: Option<FrameRecord>,
     #[serde(skip)]
-    times: VecDeque<StageTimes>,
+    times: VecDeque<(StageTimes, Duration)>,
     latency_ms: Option<Latency>,
 }
 
@@ -49,15 +51,17 @@ pub struct FrameCounts {
 struct Latency {
     detection: f64,
     pose: f64,
+    frame: f64,
 }
 
 impl PoseStatus {
-    /// Records a frame's outcome and times.
+    /// Records a frame's outcome, the stage's times and the whole frame's time.
     pub fn record(
         &mut self,
         record: FrameRecord,
         rejection_kind: Option<&'static str>,
         times: StageTimes,
+        frame: Duration,
     ) {
         match (&record, rejection_kind) {
             (FrameRecord::Rejected { rejected, .. }, Some(kind)) => {
@@ -71,8 +75,8 @@ impl PoseStatus {
         if self.times.len() == LATENCY_WINDOW {
             self.times.pop_front();
         }
-        self.times.push_back(times);
-        let median = |part: fn(&StageTimes) -> Duration| {
+        self.times.push_back((times, frame));
+        let median = |part: fn(&(StageTimes, Duration)) -> Duration| {
             let mut ms: Vec<f64> = self
                 .times
                 .iter()
@@ -82,8 +86,9 @@ impl PoseStatus {
             ms.get(ms.len() / 2).copied().unwrap_or_default()
         };
         self.latency_ms = Some(Latency {
-            detection: median(|t| t.detection),
-            pose: median(|t| t.pose),
+            detection: median(|t| t.0.detection),
+            pose: median(|t| t.0.pose),
+            frame: median(|t| t.1),
         });
     }
 
