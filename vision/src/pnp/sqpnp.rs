@@ -450,6 +450,9 @@ struct Search<'p, 'a> {
     /// Least objective, and its count of points behind the camera, over the finite
     /// minima refused for cheirality.
     best_refused: Option<(f64, usize)>,
+    /// Every rotation a run converged to, kept or refused: a later run that comes this
+    /// close is stopped, as it would only find it again.
+    reached: Vec<Matrix3<f64>>,
     /// Rotation by half a turn about the target's thinnest direction.
     half_turn: Matrix3<f64>,
 }
@@ -477,6 +480,7 @@ impl<'p, 'a> Search<'p, 'a> {
             best_error: f64::INFINITY,
             minima: Vec::new(),
             best_refused: None,
+            reached: Vec::new(),
             half_turn: thinnest * thinnest.transpose() * 2.0 - Matrix3::identity(),
         };
         // Without a null space the eigenvector of the least eigenvalue stands in for it.
@@ -541,7 +545,9 @@ impl<'p, 'a> Search<'p, 'a> {
 
     /// SQP from the rotation nearest to `m`.
     fn run_from(&mut self, m: &Matrix3<f64>) {
-        if let Some(end) = nearest_rotation(m).and_then(|start| self.sqp.run(&start)) {
+        if let Some(end) =
+            nearest_rotation(m).and_then(|start| self.sqp.run_until(&start, &self.reached))
+        {
             self.consider(&end, true);
         }
     }
@@ -560,6 +566,7 @@ impl<'p, 'a> Search<'p, 'a> {
         if !(evaluation.error.is_finite() && evaluation.translation.iter().all(|v| v.is_finite())) {
             return;
         }
+        self.reached.push(rotation);
         if evaluation.behind > 0 {
             if self
                 .best_refused
@@ -569,7 +576,9 @@ impl<'p, 'a> Search<'p, 'a> {
             }
             if try_twin
                 && evaluation.behind == self.problem.points.len()
-                && let Some(end) = self.sqp.run(&(rotation * self.half_turn))
+                && let Some(end) = self
+                    .sqp
+                    .run_until(&(rotation * self.half_turn), &self.reached)
             {
                 self.consider(&end, false);
             }
@@ -662,17 +671,33 @@ impl Sqp<'_> {
 
     /// SQP from the rotation `start` until a step becomes negligible: the rotation it
     /// converges to, or `None` when it does not converge within the iteration cap.
+    #[cfg(test)]
+    fn run(&self, start: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+        self.run_until(start, &[])
+    }
+
+    /// SQP from the rotation `start` until a step becomes negligible: the rotation it
+    /// converges to, or `None` when it does not converge within the iteration cap or
+    /// comes within [`SAME_ROTATION_TOLERANCE`] of a rotation of `known`.
     ///
     /// A step that would raise the objective is refused and retried with
     /// Levenberg-Marquardt damping: the objective never rises, so the iteration cannot
     /// cycle or diverge. When only a damped step is accepted and it gains nothing
     /// measurable, the iterate is a minimum as far as the objective can tell (a flat
     /// valley of nearly degenerate data).
-    fn run(&self, start: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    fn run_until(&self, start: &Matrix3<f64>, known: &[Matrix3<f64>]) -> Option<Matrix3<f64>> {
+        let is_known = |rotation: &Matrix3<f64>| {
+            known
+                .iter()
+                .any(|k| (k - rotation).norm_squared() < SAME_ROTATION_TOLERANCE)
+        };
         let mut iterate = self.iterate(*start);
         let mut damping = 0.0;
         let mut previous = f64::INFINITY;
         for _ in 0..SQP_MAX_ITERATIONS {
+            if is_known(&iterate.rotation) {
+                return None;
+            }
             let model = TangentModel::at(self.omega, &iterate);
             let descent = self.descend(&iterate, &model, &mut damping)?;
             let size = (descent.iterate.rotation - iterate.rotation).norm_squared();
@@ -783,7 +808,7 @@ impl TangentModel {
         let t = (g_rt + g_rt.transpose()) * 0.5;
         let omega_hessian = tangent_hessian(omega, rotation);
         let lagrangian = omega_hessian - (Matrix3::identity() * t.trace() - t) * 0.5;
-        let hessian = if Cholesky3::new(&lagrangian).is_some() {
+        let hessian = if is_positive_definite(&lagrangian) {
             lagrangian
         } else {
             omega_hessian
@@ -796,7 +821,7 @@ impl TangentModel {
     /// [`SQP_MAX_TANGENT_STEP`]; `None` when the damped `W` is not positive definite.
     fn step(&self, damping: f64) -> Option<Vector3<f64>> {
         let damped = self.hessian + Matrix3::identity() * damping;
-        let mut y = -Cholesky3::new(&damped)?.solve(&self.gradient);
+        let mut y = -solve_positive_definite(&damped, &self.gradient)?;
         let length = y.norm();
         if length > SQP_MAX_TANGENT_STEP {
             y *= SQP_MAX_TANGENT_STEP / length;
@@ -809,60 +834,45 @@ impl TangentModel {
 /// `N^T Omega N` at the rotation `R`, for the tangent basis `n_k = vec([e_k]x R) / sqrt 2`:
 /// with `a`, `b`, `c` the rows of `R`, `n_1 = (0; -c; b)`, `n_2 = (c; 0; -a)` and
 /// `n_3 = (-b; a; 0)` (over `sqrt 2`), so that each `Omega n_k` takes two column blocks
-/// of `Omega`.
+/// of `Omega`, and each `n_k^T` two row blocks of `Omega N`.
 fn tangent_hessian(omega: &Matrix9, rotation: &Matrix3<f64>) -> Matrix3<f64> {
-    let [a, b, c] =
-        [0, 1, 2].map(|k| rotation.row(k).transpose() * std::f64::consts::FRAC_1_SQRT_2);
-    let block = |k: usize| omega.fixed_columns::<3>(3 * k);
+    let row = |k: usize| rotation.row(k).transpose() * std::f64::consts::FRAC_1_SQRT_2;
+    let (a, b, c) = (row(0), row(1), row(2));
+    let column_block = |k: usize| omega.fixed_columns::<3>(3 * k);
     let omega_n = Matrix9x3::from_columns(&[
-        block(2) * b - block(1) * c,
-        block(0) * c - block(2) * a,
-        block(1) * a - block(0) * b,
+        column_block(2) * b - column_block(1) * c,
+        column_block(0) * c - column_block(2) * a,
+        column_block(1) * a - column_block(0) * b,
     ]);
-    let stack = |blocks: [Vector3<f64>; 3]| Vector9::from_fn(|i, _| blocks[i / 3][i % 3]);
-    let zero = Vector3::zeros();
-    let n = Matrix9x3::from_columns(&[
-        stack([zero, -c, b]),
-        stack([c, zero, -a]),
-        stack([-b, a, zero]),
-    ]);
-    n.tr_mul(&omega_n)
+    let row_block = |k: usize| omega_n.fixed_rows::<3>(3 * k);
+    Matrix3::from_rows(&[
+        b.tr_mul(&row_block(2)) - c.tr_mul(&row_block(1)),
+        c.tr_mul(&row_block(0)) - a.tr_mul(&row_block(2)),
+        a.tr_mul(&row_block(1)) - b.tr_mul(&row_block(0)),
+    ])
 }
 
-/// The Cholesky factorization `A = L L^T` of a symmetric 3x3 matrix (its lower
-/// triangle), written out: the SQP's inner loop factors one or two such matrices per
-/// step, where nalgebra's generic factorization costs several times as much.
-struct Cholesky3 {
-    /// `L`, lower triangular.
-    l: Matrix3<f64>,
+/// The adjugate (its rows, equal to its columns) and the determinant of a symmetric
+/// 3x3 matrix, if it is positive definite: by Sylvester's criterion, when its leading
+/// principal minors `a_00`, the upper-left 2x2 one and the determinant are positive.
+fn positive_definite_adjugate(a: &Matrix3<f64>) -> Option<([Vector3<f64>; 3], f64)> {
+    let (c0, c1, c2) = (a.column(0), a.column(1), a.column(2));
+    let rows = [c1.cross(&c2), c2.cross(&c0), c0.cross(&c1)];
+    let determinant = c0.dot(&rows[0]);
+    (a[(0, 0)] > 0.0 && rows[2].z > 0.0 && determinant > 0.0).then_some((rows, determinant))
 }
 
-impl Cholesky3 {
-    /// `None` unless `a` is positive definite (every pivot positive).
-    fn new(a: &Matrix3<f64>) -> Option<Self> {
-        let pivot = |value: f64| (value > 0.0).then(|| value.sqrt());
-        let l00 = pivot(a[(0, 0)])?;
-        let l10 = a[(1, 0)] / l00;
-        let l20 = a[(2, 0)] / l00;
-        let l11 = pivot(a[(1, 1)] - l10 * l10)?;
-        let l21 = (a[(2, 1)] - l20 * l10) / l11;
-        let l22 = pivot(a[(2, 2)] - l20 * l20 - l21 * l21)?;
-        Some(Self {
-            l: Matrix3::new(l00, 0.0, 0.0, l10, l11, 0.0, l20, l21, l22),
-        })
-    }
+/// Whether a symmetric 3x3 matrix is positive definite.
+fn is_positive_definite(a: &Matrix3<f64>) -> bool {
+    positive_definite_adjugate(a).is_some()
+}
 
-    /// The solution `x` of `A x = b`.
-    fn solve(&self, b: &Vector3<f64>) -> Vector3<f64> {
-        let l = &self.l;
-        let y0 = b[0] / l[(0, 0)];
-        let y1 = (b[1] - l[(1, 0)] * y0) / l[(1, 1)];
-        let y2 = (b[2] - l[(2, 0)] * y0 - l[(2, 1)] * y1) / l[(2, 2)];
-        let x2 = y2 / l[(2, 2)];
-        let x1 = (y1 - l[(2, 1)] * x2) / l[(1, 1)];
-        let x0 = (y0 - l[(1, 0)] * x1 - l[(2, 0)] * x2) / l[(0, 0)];
-        Vector3::new(x0, x1, x2)
-    }
+/// The solution of `a x = b` for a symmetric 3x3 `a` by its adjugate; `None` unless `a`
+/// is positive definite. In the SQP's inner loop this costs one division, a Cholesky
+/// factorization a chain of three square roots and several divisions.
+fn solve_positive_definite(a: &Matrix3<f64>, b: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let (adjugate, determinant) = positive_definite_adjugate(a)?;
+    Some(Vector3::from_fn(|i, _| adjugate[i].dot(b)) / determinant)
 }
 
 #[cfg(test)]
