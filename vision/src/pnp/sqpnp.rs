@@ -28,10 +28,11 @@
 //!   the target frame's origin or units;
 //! - `Omega` is decomposed by the symmetric eigensolver (nalgebra's SVD returned
 //!   inaccurate null vectors for some);
-//! - each SQP iterate is projected to the nearest rotation (SVD) and a step that would
-//!   raise the objective is retried with Levenberg-Marquardt damping; near a minimum
-//!   the step uses the Hessian of the Lagrangian rather than `Omega` alone: with
-//!   noisy, weakly constraining points the paper's iteration can cycle or diverge;
+//! - every SQP iterate is a rotation: the step is taken in the tangent space and
+//!   mapped to the nearest rotation (in closed form), and a step that would raise the
+//!   objective is retried with Levenberg-Marquardt damping; near a minimum the step
+//!   uses the Hessian of the Lagrangian rather than `Omega` alone: with noisy, weakly
+//!   constraining points the paper's iteration can cycle or diverge;
 //! - a minimum with every point behind the camera is also restarted from its planar
 //!   twin (half a turn about the target's thinnest direction), which for a planar
 //!   target explains the image equally well with every point in front;
@@ -41,8 +42,8 @@
 //!   loses one; the p3p module finds them all in closed form).
 
 use nalgebra::{
-    DMatrix, Isometry3, Matrix2x3, Matrix3, Matrix6, Point2, Point3, Rotation3, SMatrix, SVector,
-    Translation3, UnitQuaternion, Vector3, Vector6,
+    Isometry3, Matrix3, Matrix4x3, Point2, Point3, Rotation3, SMatrix, SVector, Translation3,
+    UnitQuaternion, Vector3,
 };
 
 use super::PnpError;
@@ -51,7 +52,6 @@ type Vector9 = SVector<f64, 9>;
 type Matrix9 = SMatrix<f64, 9, 9>;
 type Matrix3x9 = SMatrix<f64, 3, 9>;
 type Matrix9x3 = SMatrix<f64, 9, 3>;
-type Matrix9x6 = SMatrix<f64, 9, 6>;
 
 /// Fewest correspondences SQPnP accepts.
 const MIN_POINTS: usize = 3;
@@ -287,26 +287,22 @@ fn point_error(c: &Vector3<f64>, m: &Point2<f64>) -> f64 {
     (c.x - m.x * c.z).powi(2) + (c.y - m.y * c.z).powi(2)
 }
 
-/// `A(M)`: the 3x9 matrix with `A(M) r = R M` for the row-major 9-vector `r` of `R`.
-fn lift(point: &Point3<f64>) -> Matrix3x9 {
-    let mut a = Matrix3x9::zeros();
-    for row in 0..3 {
-        for col in 0..3 {
-            a[(row, 3 * row + col)] = point[col];
-        }
+/// `Q(m) = B(m)^T B(m) = [1 0 -x; 0 1 -y; -x -y x^2+y^2]` for `B(m) = [1 0 -x; 0 1 -y]`
+/// has entries `0` or `+-w_k` with the weights `w = (1, x, y, x^2 + y^2)`: entry
+/// `(a, b)` as `(sign, k)`, sign 0 for the zeros.
+fn metric_entry(a: usize, b: usize) -> (f64, usize) {
+    match (a.min(b), a.max(b)) {
+        (0, 0) | (1, 1) => (1.0, 0),
+        (0, 2) => (-1.0, 1),
+        (1, 2) => (-1.0, 2),
+        (2, 2) => (1.0, 3),
+        _ => (0.0, 0),
     }
-    a
-}
-
-/// `Q(m) = B(m)^T B(m)` with `B(m) = [1 0 -x; 0 1 -y]`.
-fn image_metric(m: &Point2<f64>) -> Matrix3<f64> {
-    let b = Matrix2x3::new(1.0, 0.0, -m.x, 0.0, 1.0, -m.y);
-    b.transpose() * b
 }
 
 /// The row-major 9-vector of a 3x3 matrix.
 fn to_vector(m: &Matrix3<f64>) -> Vector9 {
-    Vector9::from_iterator(m.transpose().iter().copied())
+    Vector9::from_column_slice(m.transpose().as_slice())
 }
 
 /// The 3x3 matrix of a row-major 9-vector.
@@ -323,19 +319,36 @@ struct Problem<'a> {
 }
 
 impl<'a> Problem<'a> {
+    /// With `A(M)` the 3x9 matrix such that `A(M) r = R M`, the 3x3 block `(a, b)` of
+    /// `A^T Q A` is `Q_ab M M^T` and that of `Q A` is `Q_ab M^T`: the sums over the
+    /// points reduce to sums of `w_k`, `w_k M` and `w_k M M^T` for the four weights of
+    /// [`metric_entry`].
     fn new(points: &'a [Point3<f64>], image: &'a [Point2<f64>]) -> Result<Self, PnpError> {
         check_image_spread(image)?;
-        let mut omega = Matrix9::zeros();
-        let mut qa_sum = Matrix3x9::zeros();
-        let mut q_sum = Matrix3::zeros();
+        let mut weights = [0.0; 4];
+        let mut first = [Vector3::zeros(); 4];
+        let mut second = [Matrix3::zeros(); 4];
         for (point, m) in points.iter().zip(image) {
-            let a = lift(point);
-            let q = image_metric(m);
-            let qa = q * a;
-            omega += a.transpose() * qa;
-            qa_sum += qa;
-            q_sum += q;
+            let w = [1.0, m.x, m.y, m.x * m.x + m.y * m.y];
+            let outer = point.coords * point.coords.transpose();
+            for k in 0..4 {
+                weights[k] += w[k];
+                first[k] += point.coords * w[k];
+                second[k] += outer * w[k];
+            }
         }
+        let q_sum = Matrix3::from_fn(|a, b| {
+            let (sign, k) = metric_entry(a, b);
+            sign * weights[k]
+        });
+        let qa_sum = Matrix3x9::from_fn(|a, col| {
+            let (sign, k) = metric_entry(a, col / 3);
+            sign * first[k][col % 3]
+        });
+        let mut omega = Matrix9::from_fn(|row, col| {
+            let (sign, k) = metric_entry(row / 3, col / 3);
+            sign * second[k][(row % 3, col % 3)]
+        });
         let q_inverse = q_sum.cholesky().map(|c| c.inverse()).ok_or_else(|| {
             PnpError::NoSolution("the image points' normal matrix is not invertible".into())
         })?;
@@ -437,6 +450,9 @@ struct Search<'p, 'a> {
     /// Least objective, and its count of points behind the camera, over the finite
     /// minima refused for cheirality.
     best_refused: Option<(f64, usize)>,
+    /// Every rotation a run converged to, kept or refused: a later run that comes this
+    /// close is stopped, as it would only find it again.
+    reached: Vec<Matrix3<f64>>,
     /// Rotation by half a turn about the target's thinnest direction.
     half_turn: Matrix3<f64>,
 }
@@ -464,6 +480,7 @@ impl<'p, 'a> Search<'p, 'a> {
             best_error: f64::INFINITY,
             minima: Vec::new(),
             best_refused: None,
+            reached: Vec::new(),
             half_turn: thinnest * thinnest.transpose() * 2.0 - Matrix3::identity(),
         };
         // Without a null space the eigenvector of the least eigenvalue stands in for it.
@@ -528,7 +545,9 @@ impl<'p, 'a> Search<'p, 'a> {
 
     /// SQP from the rotation nearest to `m`.
     fn run_from(&mut self, m: &Matrix3<f64>) {
-        if let Some(end) = nearest_rotation(m).and_then(|start| self.sqp.run(&start)) {
+        if let Some(end) =
+            nearest_rotation(m).and_then(|start| self.sqp.run_until(&start, &self.reached))
+        {
             self.consider(&end, true);
         }
     }
@@ -547,6 +566,7 @@ impl<'p, 'a> Search<'p, 'a> {
         if !(evaluation.error.is_finite() && evaluation.translation.iter().all(|v| v.is_finite())) {
             return;
         }
+        self.reached.push(rotation);
         if evaluation.behind > 0 {
             if self
                 .best_refused
@@ -556,7 +576,9 @@ impl<'p, 'a> Search<'p, 'a> {
             }
             if try_twin
                 && evaluation.behind == self.problem.points.len()
-                && let Some(end) = self.sqp.run(&(rotation * self.half_turn))
+                && let Some(end) = self
+                    .sqp
+                    .run_until(&(rotation * self.half_turn), &self.reached)
             {
                 self.consider(&end, false);
             }
@@ -600,15 +622,13 @@ fn nearest_rotation(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
         return None;
     }
     // The general SVD: nalgebra's special 3x3 SVD goes through m^T m and loses half
-    // the digits of nearly equal singular values.
-    let svd = DMatrix::from_column_slice(3, 3, m.as_slice()).try_svd(
-        true,
-        true,
-        f64::EPSILON,
-        DECOMPOSITION_MAX_ITERATIONS,
-    )?;
-    let u: Matrix3<f64> = svd.u?.fixed_view::<3, 3>(0, 0).into_owned();
-    let v_t: Matrix3<f64> = svd.v_t?.fixed_view::<3, 3>(0, 0).into_owned();
+    // the digits of nearly equal singular values. A zero fourth row selects the general
+    // algorithm without allocating and changes neither V nor U's first three rows.
+    let mut padded = Matrix4x3::zeros();
+    padded.fixed_rows_mut::<3>(0).copy_from(m);
+    let svd = padded.try_svd(true, true, f64::EPSILON, DECOMPOSITION_MAX_ITERATIONS)?;
+    let u: Matrix3<f64> = svd.u?.fixed_rows::<3>(0).into_owned();
+    let v_t = svd.v_t?;
     let mut sign = Matrix3::identity();
     if (u * v_t).determinant() < 0.0 {
         sign[(2, 2)] = -1.0;
@@ -618,81 +638,112 @@ fn nearest_rotation(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
 }
 
 /// The SQP iteration on `r^T Omega r` over rotations.
+///
+/// Every iterate is a rotation, where the constraints' Jacobian has a closed-form null
+/// space, the tangent space `{[w]x R}`: a step is a 3-vector `w`, and the nearest
+/// rotation to `R + [w]x R` is `R` turned about `w` by `atan |w|`. No decomposition is
+/// needed inside the iteration.
 struct Sqp<'o> {
     omega: &'o Matrix9,
     /// Largest eigenvalue of `Omega`: the scale of the objective and its Hessian.
     scale: f64,
 }
 
+/// An SQP iterate: a rotation and what the next step needs of it.
+struct Iterate {
+    rotation: Matrix3<f64>,
+    /// `Omega r`: half the objective's gradient.
+    gradient: Vector9,
+    /// The objective `r^T Omega r`.
+    error: f64,
+}
+
 impl Sqp<'_> {
-    fn objective(&self, r: &Vector9) -> f64 {
-        r.dot(&(self.omega * r))
+    fn iterate(&self, rotation: Matrix3<f64>) -> Iterate {
+        let r = to_vector(&rotation);
+        let gradient = self.omega * r;
+        Iterate {
+            rotation,
+            gradient,
+            error: r.dot(&gradient),
+        }
     }
 
     /// SQP from the rotation `start` until a step becomes negligible: the rotation it
     /// converges to, or `None` when it does not converge within the iteration cap.
+    #[cfg(test)]
+    fn run(&self, start: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+        self.run_until(start, &[])
+    }
+
+    /// SQP from the rotation `start` until a step becomes negligible: the rotation it
+    /// converges to, or `None` when it does not converge within the iteration cap or
+    /// comes within [`SAME_ROTATION_TOLERANCE`] of a rotation of `known`.
     ///
-    /// Each iterate is brought back onto the rotations by the nearest rotation matrix,
-    /// and a step that would raise the objective there is refused and retried with
+    /// A step that would raise the objective is refused and retried with
     /// Levenberg-Marquardt damping: the objective never rises, so the iteration cannot
     /// cycle or diverge. When only a damped step is accepted and it gains nothing
     /// measurable, the iterate is a minimum as far as the objective can tell (a flat
     /// valley of nearly degenerate data).
-    fn run(&self, start: &Matrix3<f64>) -> Option<Matrix3<f64>> {
-        let mut r = to_vector(start);
-        let mut error = self.objective(&r);
+    fn run_until(&self, start: &Matrix3<f64>, known: &[Matrix3<f64>]) -> Option<Matrix3<f64>> {
+        let is_known = |rotation: &Matrix3<f64>| {
+            known
+                .iter()
+                .any(|k| (k - rotation).norm_squared() < SAME_ROTATION_TOLERANCE)
+        };
+        let mut iterate = self.iterate(*start);
         let mut damping = 0.0;
         let mut previous = f64::INFINITY;
         for _ in 0..SQP_MAX_ITERATIONS {
-            let model = SqpModel::at(self.omega, &r)?;
-            let descent = self.descend(&r, &model, error, &mut damping)?;
-            let size = (descent.r - r).norm_squared();
-            let stalled = descent.damped && error - descent.error <= self.slack();
-            r = descent.r;
-            error = descent.error;
+            if is_known(&iterate.rotation) {
+                return None;
+            }
+            let model = TangentModel::at(self.omega, &iterate);
+            let descent = self.descend(&iterate, &model, &mut damping)?;
+            let size = (descent.iterate.rotation - iterate.rotation).norm_squared();
+            let stalled = descent.damped && iterate.error - descent.iterate.error <= self.slack();
+            iterate = descent.iterate;
             // Below the loose tolerance, steps that stop shrinking are rounding noise.
             if size <= SQP_STEP_TOLERANCE
                 || (size <= SQP_LOOSE_TOLERANCE && size > 0.25 * previous)
                 || stalled
             {
-                return Some(to_matrix(&r));
+                return Some(iterate.rotation);
             }
             previous = size;
         }
-        (previous <= SQP_LOOSE_TOLERANCE).then(|| to_matrix(&r))
+        (previous <= SQP_LOOSE_TOLERANCE).then_some(iterate.rotation)
     }
 
     fn slack(&self) -> f64 {
         SQP_OBJECTIVE_SLACK * self.scale
     }
 
-    /// The first step from `r`, damped more at each refusal, whose nearest rotation does
-    /// not raise the objective above `error` (up to rounding). `damping` carries over
-    /// between iterations: a tenth of it after an accepted step.
+    /// The first step from `iterate`, damped more at each refusal, whose rotation does
+    /// not raise the objective (up to rounding). `damping` carries over between
+    /// iterations: a tenth of it after an accepted step.
     fn descend(
         &self,
-        r: &Vector9,
-        model: &SqpModel,
-        error: f64,
+        iterate: &Iterate,
+        model: &TangentModel,
         damping: &mut f64,
     ) -> Option<Descent> {
         for _ in 0..SQP_MAX_REFUSALS {
-            let accepted = model.step(*damping).and_then(|step| {
-                let candidate = to_vector(&nearest_rotation(&to_matrix(&(r + step)))?);
-                let candidate_error = self.objective(&candidate);
-                (candidate_error <= error + self.slack()).then_some(Descent {
-                    r: candidate,
-                    error: candidate_error,
-                    damped: *damping > 0.0,
-                })
-            });
-            if let Some(descent) = accepted {
+            let candidate = model
+                .step(*damping)
+                .map(|w| self.iterate(turned(&iterate.rotation, &w)))
+                .filter(|candidate| candidate.error <= iterate.error + self.slack());
+            if let Some(candidate) = candidate {
+                let damped = *damping > 0.0;
                 *damping = if *damping > 10.0 * SQP_INITIAL_DAMPING * self.scale {
                     *damping / 10.0
                 } else {
                     0.0
                 };
-                return Some(descent);
+                return Some(Descent {
+                    iterate: candidate,
+                    damped,
+                });
             }
             *damping = if *damping > 0.0 {
                 *damping * 10.0
@@ -706,185 +757,122 @@ impl Sqp<'_> {
 
 /// Where an accepted step of [`Sqp::descend`] lands.
 struct Descent {
-    /// The new iterate, a rotation.
-    r: Vector9,
-    /// The objective there.
-    error: f64,
+    iterate: Iterate,
     /// Whether the step was damped.
     damped: bool,
 }
 
-/// The quadratic model of one SQP step at `r` for `min r^T Omega r` subject to
-/// `R R^T = I`. The step solves the linearized constraints `J delta = g` and minimizes
-/// the model along their null space. It splits as `delta = H x + N y` with `H` an
-/// orthonormal basis of the row space of the constraint Jacobian `J` and `N` of its
-/// null space: `(J H) x = g` (lower triangular) and `W y = -N^T (Omega r + B H x)` with
-/// `W = N^T B N`.
+/// The rotation nearest to `R + [w]x R`: `R` turned about `w` by `atan |w|` (the
+/// orthogonal polar factor of `I + [w]x`), by Rodrigues' formula with
+/// `cos = c = 1 / sqrt(1 + |w|^2)`, `sin = c |w|`, so `1 - cos = c^2 |w|^2 / (1 + c)`.
+fn turned(rotation: &Matrix3<f64>, w: &Vector3<f64>) -> Matrix3<f64> {
+    let c = (1.0 + w.norm_squared()).sqrt().recip();
+    let k = w.cross_matrix();
+    (Matrix3::identity() + k * c + k * k * (c * c / (1.0 + c))) * rotation
+}
+
+/// The quadratic model of one SQP step at a rotation `R` (9-vector `r`) for
+/// `min r^T Omega r` subject to `R R^T = I`. At a rotation the constraints hold, so the
+/// step lies in their Jacobian's null space, the tangent space spanned by the
+/// orthonormal `N = [n_1 n_2 n_3]`, `n_k = vec([e_k]x R) / sqrt 2`: the step `N y`
+/// minimizes the model `y^T W y / 2 + y^T N^T Omega r`, and `N y = vec([w]x R)` with
+/// `w = y / sqrt 2`.
 ///
-/// The model's Hessian `B` is that of the Lagrangian, `Omega` plus the constraints'
-/// curvature weighted by the least-squares multipliers, where it makes `W` positive
-/// definite (near a minimum), and the paper's `B = Omega` elsewhere. The paper's is
-/// exact at an exact fit; where the objective's gradient across the constraints is
-/// large against its curvature along them (noisy points that hardly fix the pose) it
-/// alone makes SQP cycle or diverge near the minimum, the Lagrangian's does not.
-struct SqpModel {
-    /// `H x`: the part of the step that restores the constraints.
-    row: Vector9,
-    /// `N`.
-    null_space: Matrix9x3,
+/// The model's Hessian `W` is the reduced Hessian of the Lagrangian,
+/// `N^T Omega N - N^T (T (x) I) N` with the least-squares multipliers `T`, where it is
+/// positive definite (near a minimum), and the paper's `N^T Omega N` elsewhere. The
+/// paper's is exact at an exact fit; where the objective's gradient across the
+/// constraints is large against its curvature along them (noisy points that hardly fix
+/// the pose) it alone makes SQP cycle or diverge near the minimum, the Lagrangian's does
+/// not.
+struct TangentModel {
     /// `W`.
     hessian: Matrix3<f64>,
-    /// `N^T (Omega r + B H x)`.
+    /// `N^T Omega r`.
     gradient: Vector3<f64>,
 }
 
-impl SqpModel {
-    fn at(omega: &Matrix9, r: &Vector9) -> Option<Self> {
-        let (jacobian, g) = constraints(r);
-        let (h, jh) = row_space(&jacobian)?;
-        let row = h * jh.solve_lower_triangular(&g)?;
-        let n = null_space(&h)?;
-        // J^T = H (J H)^T, so the multipliers solving J^T mu = 2 Omega r in least
-        // squares are (J H)^-T H^T 2 Omega r.
-        let multipliers = jh
-            .transpose()
-            .solve_upper_triangular(&(h.transpose() * (omega * r) * 2.0))?;
-        let lagrangian = omega + constraint_curvature(&multipliers);
-        let hessian = n.transpose() * lagrangian * n;
-        // Far from a minimum the Lagrangian's W may be indefinite: there the paper's
-        // positive semi-definite N^T Omega N leads the way.
-        let b = if hessian.cholesky().is_some() {
+impl TangentModel {
+    fn at(omega: &Matrix9, iterate: &Iterate) -> Self {
+        let rotation = &iterate.rotation;
+        // With G the 3x3 matrix of Omega r, G R^T splits into a skew part, the gradient
+        // along the tangent space (n_k^T Omega r = <[e_k]x, G R^T> / sqrt 2), and a
+        // symmetric part T, the least-squares multipliers (T R = G). The constraints'
+        // curvature along the tangent space is then (tr(T) I - T) / 2.
+        let g_rt = to_matrix(&iterate.gradient) * rotation.transpose();
+        let gradient = Vector3::new(
+            g_rt[(2, 1)] - g_rt[(1, 2)],
+            g_rt[(0, 2)] - g_rt[(2, 0)],
+            g_rt[(1, 0)] - g_rt[(0, 1)],
+        ) * std::f64::consts::FRAC_1_SQRT_2;
+        let t = (g_rt + g_rt.transpose()) * 0.5;
+        let omega_hessian = tangent_hessian(omega, rotation);
+        let lagrangian = omega_hessian - (Matrix3::identity() * t.trace() - t) * 0.5;
+        let hessian = if is_positive_definite(&lagrangian) {
             lagrangian
         } else {
-            *omega
+            omega_hessian
         };
-        Some(Self {
-            row,
-            null_space: n,
-            hessian: n.transpose() * b * n,
-            gradient: n.transpose() * (omega * r + b * row),
-        })
+        Self { hessian, gradient }
     }
 
-    /// The full step `H x + N y` with `y` minimizing the model damped by
-    /// `damping * |y|^2 / 2`, its null-space part cut to [`SQP_MAX_TANGENT_STEP`];
-    /// `None` when the damped `W` is not positive definite.
-    fn step(&self, damping: f64) -> Option<Vector9> {
+    /// The rotation vector `w` of the step minimizing the model damped by
+    /// `damping * |y|^2 / 2`, its length in 9-vector norm cut to
+    /// [`SQP_MAX_TANGENT_STEP`]; `None` when the damped `W` is not positive definite.
+    fn step(&self, damping: f64) -> Option<Vector3<f64>> {
         let damped = self.hessian + Matrix3::identity() * damping;
-        let y = -damped.cholesky()?.solve(&self.gradient);
-        let mut tangent = self.null_space * y;
-        let length = tangent.norm();
+        let mut y = -solve_positive_definite(&damped, &self.gradient)?;
+        let length = y.norm();
         if length > SQP_MAX_TANGENT_STEP {
-            tangent *= SQP_MAX_TANGENT_STEP / length;
+            y *= SQP_MAX_TANGENT_STEP / length;
         }
-        let step = self.row + tangent;
-        step.iter().all(|v| v.is_finite()).then_some(step)
+        let w = y * std::f64::consts::FRAC_1_SQRT_2;
+        w.iter().all(|v| v.is_finite()).then_some(w)
     }
 }
 
-/// Half the Hessian of `-mu^T h(r)` for the constraints `h` of [`constraints`]: the
-/// squared-norm constraints have Hessian `2 I` on their row's block, the dot products
-/// `I` on the two blocks they couple; halved like `Omega` (the objective's Hessian is
-/// `2 Omega`).
-fn constraint_curvature(multipliers: &Vector6<f64>) -> Matrix9 {
-    let mu = multipliers;
-    let t = Matrix3::new(
-        mu[0],
-        mu[3] / 2.0,
-        mu[5] / 2.0,
-        mu[3] / 2.0,
-        mu[1],
-        mu[4] / 2.0,
-        mu[5] / 2.0,
-        mu[4] / 2.0,
-        mu[2],
-    );
-    Matrix9::from_fn(|row, col| {
-        if row % 3 == col % 3 {
-            -t[(row / 3, col / 3)]
-        } else {
-            0.0
-        }
-    })
+/// `N^T Omega N` at the rotation `R`, for the tangent basis `n_k = vec([e_k]x R) / sqrt 2`:
+/// with `a`, `b`, `c` the rows of `R`, `n_1 = (0; -c; b)`, `n_2 = (c; 0; -a)` and
+/// `n_3 = (-b; a; 0)` (over `sqrt 2`), so that each `Omega n_k` takes two column blocks
+/// of `Omega`, and each `n_k^T` two row blocks of `Omega N`.
+fn tangent_hessian(omega: &Matrix9, rotation: &Matrix3<f64>) -> Matrix3<f64> {
+    let row = |k: usize| rotation.row(k).transpose() * std::f64::consts::FRAC_1_SQRT_2;
+    let (a, b, c) = (row(0), row(1), row(2));
+    let column_block = |k: usize| omega.fixed_columns::<3>(3 * k);
+    let omega_n = Matrix9x3::from_columns(&[
+        column_block(2) * b - column_block(1) * c,
+        column_block(0) * c - column_block(2) * a,
+        column_block(1) * a - column_block(0) * b,
+    ]);
+    let row_block = |k: usize| omega_n.fixed_rows::<3>(3 * k);
+    Matrix3::from_rows(&[
+        b.tr_mul(&row_block(2)) - c.tr_mul(&row_block(1)),
+        c.tr_mul(&row_block(0)) - a.tr_mul(&row_block(2)),
+        a.tr_mul(&row_block(1)) - b.tr_mul(&row_block(0)),
+    ])
 }
 
-/// The rows of the Jacobian of the six orthogonality constraints
-/// `|r1|^2 = 1, |r2|^2 = 1, |r3|^2 = 1, r1.r2 = 0, r2.r3 = 0, r1.r3 = 0` (`r_k` the rows
-/// of `R`) at `r`, and the constraint residuals `g` that a step must cancel.
-fn constraints(r: &Vector9) -> ([Vector9; 6], Vector6<f64>) {
-    let row = |k: usize| Vector3::new(r[3 * k], r[3 * k + 1], r[3 * k + 2]);
-    let (r1, r2, r3) = (row(0), row(1), row(2));
-    let zero = Vector3::zeros();
-    let stack = |a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>| {
-        Vector9::from_iterator(a.iter().chain(b.iter()).chain(c.iter()).copied())
-    };
-    let jacobian = [
-        stack(r1 * 2.0, zero, zero),
-        stack(zero, r2 * 2.0, zero),
-        stack(zero, zero, r3 * 2.0),
-        stack(r2, r1, zero),
-        stack(zero, r3, r2),
-        stack(r3, zero, r1),
-    ];
-    let g = Vector6::new(
-        1.0 - r1.norm_squared(),
-        1.0 - r2.norm_squared(),
-        1.0 - r3.norm_squared(),
-        -r1.dot(&r2),
-        -r2.dot(&r3),
-        -r1.dot(&r3),
-    );
-    (jacobian, g)
+/// The adjugate (its rows, equal to its columns) and the determinant of a symmetric
+/// 3x3 matrix, if it is positive definite: by Sylvester's criterion, when its leading
+/// principal minors `a_00`, the upper-left 2x2 one and the determinant are positive.
+fn positive_definite_adjugate(a: &Matrix3<f64>) -> Option<([Vector3<f64>; 3], f64)> {
+    let (c0, c1, c2) = (a.column(0), a.column(1), a.column(2));
+    let rows = [c1.cross(&c2), c2.cross(&c0), c0.cross(&c1)];
+    let determinant = c0.dot(&rows[0]);
+    (a[(0, 0)] > 0.0 && rows[2].z > 0.0 && determinant > 0.0).then_some((rows, determinant))
 }
 
-/// Gram-Schmidt on the Jacobian's rows: an orthonormal basis `H` of the row space
-/// (columns) and the lower-triangular `J H`; `None` if the rows are dependent (the
-/// matrix of `r` has lost rank).
-fn row_space(jacobian: &[Vector9; 6]) -> Option<(Matrix9x6, Matrix6<f64>)> {
-    let mut h = Matrix9x6::zeros();
-    let mut jh = Matrix6::zeros();
-    for (k, row) in jacobian.iter().enumerate() {
-        let mut v = *row;
-        for l in 0..k {
-            let coefficient = row.dot(&h.column(l));
-            jh[(k, l)] = coefficient;
-            v -= h.column(l) * coefficient;
-        }
-        let norm = v.norm();
-        if norm.is_nan() || norm <= 1e-10 * row.norm().max(1.0) {
-            return None;
-        }
-        h.set_column(k, &(v / norm));
-        jh[(k, k)] = norm;
-    }
-    Some((h, jh))
+/// Whether a symmetric 3x3 matrix is positive definite.
+fn is_positive_definite(a: &Matrix3<f64>) -> bool {
+    positive_definite_adjugate(a).is_some()
 }
 
-/// An orthonormal basis of the complement of the columns of `h` (orthonormal, 9x6):
-/// Gram-Schmidt on the coordinate axes projected off `h`, taking the longest
-/// remaining one each time.
-fn null_space(h: &Matrix9x6) -> Option<Matrix9x3> {
-    let mut candidates: [Vector9; 9] = std::array::from_fn(|i| {
-        let axis = Vector9::from_fn(|j, _| if i == j { 1.0 } else { 0.0 });
-        axis - h * (h.transpose() * axis)
-    });
-    let mut n = Matrix9x3::zeros();
-    for k in 0..3 {
-        let longest = candidates
-            .iter()
-            .copied()
-            .max_by(|a, b| a.norm_squared().total_cmp(&b.norm_squared()))?;
-        let norm = longest.norm();
-        if norm.is_nan() || norm <= 1e-6 {
-            return None;
-        }
-        let basis = longest / norm;
-        for candidate in &mut candidates {
-            *candidate -= basis * basis.dot(candidate);
-        }
-        n.set_column(k, &basis);
-    }
-    Some(n)
+/// The solution of `a x = b` for a symmetric 3x3 `a` by its adjugate; `None` unless `a`
+/// is positive definite. In the SQP's inner loop this costs one division, a Cholesky
+/// factorization a chain of three square roots and several divisions.
+fn solve_positive_definite(a: &Matrix3<f64>, b: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let (adjugate, determinant) = positive_definite_adjugate(a)?;
+    Some(Vector3::from_fn(|i, _| adjugate[i].dot(b)) / determinant)
 }
 
 #[cfg(test)]
