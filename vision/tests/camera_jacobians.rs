@@ -240,9 +240,9 @@ fn points_behind_the_camera_have_no_projection() {
     );
 }
 
-/// The lean projection is the full one's pixel and point derivative.
+/// The pose-only projection is the full one's pixel and pose derivative.
 #[test]
-fn the_lean_projection_matches_the_full_one() {
+fn pose_only_projection_matches_the_full_one() {
     use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
     use stereocal_vision::camera::{CameraModel, Distortion, DistortionModel, Intrinsics};
     for (model, d) in [
@@ -278,10 +278,10 @@ fn the_lean_projection_matches_the_full_one() {
         let full = camera
             .project_target_point_with_jacobians(&pose, &point)
             .unwrap();
-        let (pixel, jacobian) = camera.project_with_point_jacobian(&(pose * point)).unwrap();
+        let (pixel, jacobian) = camera.project_with_pose_jacobian(&(pose * point)).unwrap();
         assert!((pixel - full.projection.pixel).norm() < 1e-12, "{model:?}");
         assert!(
-            (jacobian - full.projection.d_pixel_d_point).abs().max() < 1e-9,
+            (jacobian - full.d_pixel_d_pose).abs().max() < 1e-9,
             "{model:?}"
         );
     }

@@ -53,13 +53,14 @@ pub fn retract_pose(camera_from_target: &Isometry3<f64>, delta: &Vector6<f64>) -
 }
 
 impl CameraModel {
-    /// Projects a point of the camera frame with only its derivative with respect to
-    /// the point: what pose estimation needs, without the intrinsics' and distortion's
-    /// derivatives. `None` when the point is not in front of the camera.
-    pub fn project_with_point_jacobian(
+    /// Projects a point of the camera frame with only the derivative with respect to
+    /// the pose that put it there (left perturbation, see [`retract_pose`]): what pose
+    /// estimation needs, without the intrinsics' and distortion's derivatives. `None`
+    /// when the point is not in front of the camera.
+    pub fn project_with_pose_jacobian(
         &self,
         point_in_camera: &Point3<f64>,
-    ) -> Option<(Point2<f64>, Matrix2x3<f64>)> {
+    ) -> Option<(Point2<f64>, Matrix2x6<f64>)> {
         let (x, y, z) = (point_in_camera.x, point_in_camera.y, point_in_camera.z);
         if z <= 0.0 {
             return None;
@@ -71,12 +72,13 @@ impl CameraModel {
             .pixel_from_normalized(&self.distortion.distort(&normalized));
         // d(pixel)/d(point) = F * D * d(normalized)/d(point), written out.
         let (fx, fy) = (self.intrinsics.fx, self.intrinsics.fy);
+        let inv_z = 1.0 / z;
         let a = Matrix2::new(
             fx * d_distorted[(0, 0)],
             fx * d_distorted[(0, 1)],
             fy * d_distorted[(1, 0)],
             fy * d_distorted[(1, 1)],
-        ) / z;
+        ) * inv_z;
         let d_pixel_d_point = Matrix2x3::new(
             a[(0, 0)],
             a[(0, 1)],
@@ -85,7 +87,15 @@ impl CameraModel {
             a[(1, 1)],
             -(a[(1, 0)] * normalized.x + a[(1, 1)] * normalized.y),
         );
-        Some((pixel, d_pixel_d_point))
+        // d(exp(omega) X + tau) / d(omega, tau) at 0 is [-[X]x, I].
+        let mut d_pixel_d_pose = Matrix2x6::zeros();
+        d_pixel_d_pose
+            .fixed_view_mut::<2, 3>(0, 0)
+            .copy_from(&(d_pixel_d_point * -point_in_camera.coords.cross_matrix()));
+        d_pixel_d_pose
+            .fixed_view_mut::<2, 3>(0, 3)
+            .copy_from(&d_pixel_d_point);
+        Some((pixel, d_pixel_d_pose))
     }
 
     /// Projects a point in the camera frame with the analytic derivatives of the pixel

@@ -1,18 +1,10 @@
 //! Levenberg-Marquardt refinement of a pose on the pixel reprojection error, through
 //! the full camera model (distortion included).
-//!
-//! The pose is perturbed about the target's centroid in the camera frame `c`:
-//! `X -> exp(omega) (X - c) + c + tau`. Turning a distant target about the camera's
-//! origin would swing it sideways by `omega x c` as well, coupling rotation with
-//! translation; about its own centroid the two are nearly independent, and the error's
-//! valley is straight enough for Gauss-Newton steps to follow it.
 
-use nalgebra::{
-    Isometry3, Matrix2x6, Matrix6, Point3, Translation3, UnitQuaternion, Vector2, Vector3, Vector6,
-};
+use nalgebra::{Isometry3, Matrix6, Point3, Vector2, Vector6};
 
 use super::{Correspondences, PnpError};
-use crate::camera::CameraModel;
+use crate::camera::{CameraModel, retract_pose};
 
 /// Iterations after which refinement stops even if still improving.
 const MAX_ITERATIONS: usize = 100;
@@ -38,8 +30,8 @@ pub struct Refined {
     pub iterations: usize,
 }
 
-/// The squared error, `J^T J` and `J^T r` of a pose, for the perturbation about
-/// `center`; `None` when a point is not in front of the camera.
+/// The squared error, `J^T J` and `J^T r` of a pose; `None` when a point is not in
+/// front of the camera.
 struct Linearization {
     residuals: Vec<Vector2<f64>>,
     cost: f64,
@@ -51,7 +43,6 @@ fn linearize(
     camera: &CameraModel,
     correspondences: &Correspondences,
     camera_from_target: &Isometry3<f64>,
-    center: &Vector3<f64>,
 ) -> Option<Linearization> {
     let mut lin = Linearization {
         residuals: Vec::with_capacity(correspondences.len()),
@@ -67,12 +58,7 @@ fn linearize(
         .zip(&correspondences.pixels)
     {
         let in_camera = Point3::from(rotation * point.coords + translation);
-        let (projected, d_pixel_d_point) = camera.project_with_point_jacobian(&in_camera)?;
-        // d(exp(omega) (X - c) + c + tau) / d(omega, tau) at 0 is [-[X - c]x, I].
-        let mut j = Matrix2x6::zeros();
-        j.fixed_view_mut::<2, 3>(0, 0)
-            .copy_from(&(d_pixel_d_point * -(in_camera.coords - center).cross_matrix()));
-        j.fixed_view_mut::<2, 3>(0, 3).copy_from(&d_pixel_d_point);
+        let (projected, j) = camera.project_with_pose_jacobian(&in_camera)?;
         let r = projected - pixel;
         lin.jtj += j.transpose() * j;
         lin.jtr += j.transpose() * r;
@@ -80,33 +66,6 @@ fn linearize(
         lin.residuals.push(r);
     }
     Some(lin)
-}
-
-/// The target's centroid in the camera frame.
-fn centroid(
-    correspondences: &Correspondences,
-    camera_from_target: &Isometry3<f64>,
-) -> Vector3<f64> {
-    let sum = correspondences
-        .target_points
-        .iter()
-        .fold(Vector3::zeros(), |acc, p| acc + p.coords);
-    camera_from_target * Point3::from(sum / correspondences.len().max(1) as f64).coords
-}
-
-/// Applies `delta = [omega; tau]` about `center`: `X -> exp(omega) (X - c) + c + tau`.
-fn retract_about(
-    camera_from_target: &Isometry3<f64>,
-    delta: &Vector6<f64>,
-    center: &Vector3<f64>,
-) -> Isometry3<f64> {
-    let rotation = UnitQuaternion::from_scaled_axis(Vector3::new(delta[0], delta[1], delta[2]));
-    let tau = Vector3::new(delta[3], delta[4], delta[5]);
-    let update = Isometry3::from_parts(
-        Translation3::from(center + tau - rotation * center),
-        rotation,
-    );
-    update * camera_from_target
 }
 
 /// Refines `initial` to the nearest minimum of the squared pixel reprojection error
@@ -134,12 +93,10 @@ pub fn refine(
             .count()
     };
     let mut pose = *initial;
-    let mut center = centroid(correspondences, &pose);
-    let mut lin =
-        linearize(camera, correspondences, &pose, &center).ok_or(PnpError::BehindCamera {
-            count: behind(&pose),
-            total: correspondences.len(),
-        })?;
+    let mut lin = linearize(camera, correspondences, &pose).ok_or(PnpError::BehindCamera {
+        count: behind(&pose),
+        total: correspondences.len(),
+    })?;
     let mut lambda = 1e-3;
     let mut iterations = 0;
     while iterations < MAX_ITERATIONS {
@@ -157,13 +114,11 @@ pub fn refine(
         if predicted <= RELATIVE_TOLERANCE * lin.cost || step.norm() < STEP_TOLERANCE {
             break;
         }
-        let candidate = retract_about(&pose, &step, &center);
-        let candidate_center = centroid(correspondences, &candidate);
-        match linearize(camera, correspondences, &candidate, &candidate_center) {
+        let candidate = retract_pose(&pose, &step);
+        match linearize(camera, correspondences, &candidate) {
             Some(next) if next.cost <= lin.cost => {
                 let decrease = lin.cost - next.cost;
                 pose = candidate;
-                center = candidate_center;
                 lin = next;
                 // Damping never vanishes: far from the minimum, a pure Gauss-Newton step
                 // overshoots and several refused steps would follow.
@@ -183,23 +138,11 @@ pub fn refine(
         }
     }
     let rms_px = (lin.cost / correspondences.len() as f64).sqrt();
-    // The information matrix callers read is for the perturbation about the camera's
-    // origin: `tau_origin = tau_center + c x omega`.
-    let origin_from_center = {
-        let mut m = Matrix6::identity();
-        m.fixed_view_mut::<3, 3>(3, 0)
-            .copy_from(&center.cross_matrix());
-        m
-    };
-    let center_from_origin = origin_from_center
-        .try_inverse()
-        .unwrap_or(Matrix6::identity());
-    let information = center_from_origin.transpose() * lin.jtj * center_from_origin;
     Ok(Refined {
         camera_from_target: pose,
         residuals: lin.residuals,
         rms_px,
-        information,
+        information: lin.jtj,
         iterations,
     })
 }
