@@ -13,7 +13,7 @@ use nalgebra::{
     UnitQuaternion, Vector3,
 };
 
-use super::PnpError;
+use super::{PnpError, check_solver_input};
 
 /// Thickness (see [`PrincipalAxes::thickness`]) at or below which the target is taken as
 /// planar: three control points, the points' offsets from their plane neglected.
@@ -54,7 +54,7 @@ pub fn epnp(
     target_points: &[Point3<f64>],
     normalized: &[Point2<f64>],
 ) -> Result<Isometry3<f64>, PnpError> {
-    check_input(target_points, normalized)?;
+    check_solver_input(target_points, normalized, 4)?;
     let axes = PrincipalAxes::new(target_points)?;
     let thickness = axes.thickness();
     let directions: &[usize] = if thickness <= FLAT {
@@ -116,36 +116,6 @@ impl Best {
             )),
         }
     }
-}
-
-/// Refuses inputs no solver could use: mismatched lengths, too few points, non-finite
-/// values.
-fn check_input(target_points: &[Point3<f64>], normalized: &[Point2<f64>]) -> Result<(), PnpError> {
-    if target_points.len() != normalized.len() {
-        return Err(PnpError::MismatchedLengths {
-            target_points: target_points.len(),
-            image_points: normalized.len(),
-        });
-    }
-    if target_points.len() < 4 {
-        return Err(PnpError::TooFewPoints {
-            needed: 4,
-            got: target_points.len(),
-        });
-    }
-    if !target_points
-        .iter()
-        .all(|p| p.coords.iter().all(|v| v.is_finite()))
-    {
-        return Err(PnpError::NonFinite("target points"));
-    }
-    if !normalized
-        .iter()
-        .all(|p| p.coords.iter().all(|v| v.is_finite()))
-    {
-        return Err(PnpError::NonFinite("image points"));
-    }
-    Ok(())
 }
 
 /// The target points' centroid and principal directions, with the RMS spread of the

@@ -11,7 +11,7 @@ use nalgebra::{
     UnitQuaternion, Vector2, Vector3,
 };
 
-use super::PnpError;
+use super::{PnpError, check_solver_input};
 
 /// Largest accepted ratio of the target points' RMS distance to their best-fit plane over
 /// their RMS spread along the plane's main direction: room for a slightly warped board,
@@ -73,7 +73,7 @@ pub fn ippe(
     target_points: &[Point3<f64>],
     normalized: &[Point2<f64>],
 ) -> Result<IppeSolutions, PnpError> {
-    check_input(target_points, normalized)?;
+    check_solver_input(target_points, normalized, 4)?;
     let plane_from_target = plane_frame(target_points)?;
     let in_plane: Vec<Point2<f64>> = target_points
         .iter()
@@ -97,36 +97,6 @@ pub fn ippe(
         ))
     };
     rank(pose(first)?, pose(second)?, target_points, normalized)
-}
-
-/// Refuses inputs no solver could use: mismatched lengths, too few points, non-finite
-/// values.
-fn check_input(target_points: &[Point3<f64>], normalized: &[Point2<f64>]) -> Result<(), PnpError> {
-    if target_points.len() != normalized.len() {
-        return Err(PnpError::MismatchedLengths {
-            target_points: target_points.len(),
-            image_points: normalized.len(),
-        });
-    }
-    if target_points.len() < 4 {
-        return Err(PnpError::TooFewPoints {
-            needed: 4,
-            got: target_points.len(),
-        });
-    }
-    if !target_points
-        .iter()
-        .all(|p| p.coords.iter().all(|v| v.is_finite()))
-    {
-        return Err(PnpError::NonFinite("target points"));
-    }
-    if !normalized
-        .iter()
-        .all(|p| p.coords.iter().all(|v| v.is_finite()))
-    {
-        return Err(PnpError::NonFinite("image points"));
-    }
-    Ok(())
 }
 
 /// The frame of the target's best-fit plane: origin at the centroid, z along the plane's

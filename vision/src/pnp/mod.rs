@@ -48,25 +48,8 @@ impl Correspondences {
         target_points: &[Point3<f64>],
         pixels: &[Point2<f64>],
     ) -> Result<Self, PnpError> {
-        if target_points.len() != pixels.len() {
-            return Err(PnpError::MismatchedLengths {
-                target_points: target_points.len(),
-                image_points: pixels.len(),
-            });
-        }
+        check_solver_input(target_points, pixels, 0)?;
         check_camera(camera)?;
-        if target_points
-            .iter()
-            .any(|p| !p.coords.iter().all(|v| v.is_finite()))
-        {
-            return Err(PnpError::NonFinite("target points"));
-        }
-        if pixels
-            .iter()
-            .any(|p| !p.coords.iter().all(|v| v.is_finite()))
-        {
-            return Err(PnpError::NonFinite("image points"));
-        }
         let normalized = camera
             .unproject_all(pixels)
             .into_iter()
@@ -98,6 +81,40 @@ impl Correspondences {
     pub fn is_empty(&self) -> bool {
         self.target_points.is_empty()
     }
+}
+
+/// Refuses solver input no pose can be computed from, before any arithmetic:
+/// mismatched lengths, fewer than `needed` points, non-finite values.
+pub(crate) fn check_solver_input(
+    target_points: &[Point3<f64>],
+    normalized: &[Point2<f64>],
+    needed: usize,
+) -> Result<(), PnpError> {
+    if target_points.len() != normalized.len() {
+        return Err(PnpError::MismatchedLengths {
+            target_points: target_points.len(),
+            image_points: normalized.len(),
+        });
+    }
+    if target_points.len() < needed {
+        return Err(PnpError::TooFewPoints {
+            needed,
+            got: target_points.len(),
+        });
+    }
+    if !target_points
+        .iter()
+        .all(|p| p.coords.iter().all(|v| v.is_finite()))
+    {
+        return Err(PnpError::NonFinite("target points"));
+    }
+    if !normalized
+        .iter()
+        .all(|p| p.coords.iter().all(|v| v.is_finite()))
+    {
+        return Err(PnpError::NonFinite("image points"));
+    }
+    Ok(())
 }
 
 /// Refuses a camera model no pose can be computed through.

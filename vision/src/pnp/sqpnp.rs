@@ -46,7 +46,7 @@ use nalgebra::{
     UnitQuaternion, Vector3,
 };
 
-use super::PnpError;
+use super::{PnpError, check_solver_input};
 
 type Vector9 = SVector<f64, 9>;
 type Matrix9 = SMatrix<f64, 9, 9>;
@@ -139,7 +139,7 @@ pub fn sqpnp(
     target_points: &[Point3<f64>],
     normalized: &[Point2<f64>],
 ) -> Result<Vec<SqpnpSolution>, PnpError> {
-    check_input(target_points, normalized)?;
+    check_solver_input(target_points, normalized, MIN_POINTS)?;
     let frame = TargetFrame::fit(target_points)?;
     let local: Vec<Point3<f64>> = target_points.iter().map(|p| frame.to_local(p)).collect();
     let problem = Problem::new(&local, normalized)?;
@@ -154,35 +154,6 @@ pub fn sqpnp(
     }
     solutions.sort_by(|a, b| a.squared_error.total_cmp(&b.squared_error));
     Ok(solutions)
-}
-
-/// Refuses inputs no pose can be computed from before any arithmetic.
-fn check_input(target_points: &[Point3<f64>], normalized: &[Point2<f64>]) -> Result<(), PnpError> {
-    if target_points.len() != normalized.len() {
-        return Err(PnpError::MismatchedLengths {
-            target_points: target_points.len(),
-            image_points: normalized.len(),
-        });
-    }
-    if target_points.len() < MIN_POINTS {
-        return Err(PnpError::TooFewPoints {
-            needed: MIN_POINTS,
-            got: target_points.len(),
-        });
-    }
-    if !target_points
-        .iter()
-        .all(|p| p.coords.iter().all(|v| v.is_finite()))
-    {
-        return Err(PnpError::NonFinite("target points"));
-    }
-    if !normalized
-        .iter()
-        .all(|p| p.coords.iter().all(|v| v.is_finite()))
-    {
-        return Err(PnpError::NonFinite("image points"));
-    }
-    Ok(())
 }
 
 /// The similarity that centres the target points on their centroid and scales them to
