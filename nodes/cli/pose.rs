@@ -313,11 +313,20 @@ pub fn pose_bag(args: &PoseArgs, progress: &ProgressBar) -> anyhow::Result<PoseR
                 image: cdr::from_bytes::<ImageMsg>(&message.data).map_err(|e| e.to_string()),
             });
         } else if fixed_info.is_none() && *message.topic == info_topic {
-            if let Ok(info) = cdr::from_bytes::<CameraInfo>(&message.data) {
-                if infos.len() == RECENT_INFOS {
-                    infos.pop_front();
+            match cdr::from_bytes::<CameraInfo>(&message.data) {
+                Ok(info) => {
+                    if infos.len() == RECENT_INFOS {
+                        infos.pop_front();
+                    }
+                    infos.push_back(info);
                 }
-                infos.push_back(info);
+                // Its images are then rejected for want of a camera_info: say why.
+                Err(e) => progress.suspend(|| {
+                    eprintln!(
+                        "skipped an undecodable {info_topic} message at log time {} ns: {e}",
+                        message.log_time_ns
+                    );
+                }),
             }
         } else {
             continue;
