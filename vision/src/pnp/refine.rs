@@ -150,26 +150,8 @@ pub fn refine(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::camera::{Distortion, DistortionModel, Intrinsics};
+    use crate::pnp::test_camera as camera;
     use nalgebra::{Point2, Translation3, UnitQuaternion, Vector3};
-
-    fn camera() -> CameraModel {
-        CameraModel {
-            width: 1024,
-            height: 768,
-            intrinsics: Intrinsics {
-                fx: 800.0,
-                fy: 805.0,
-                cx: 515.0,
-                cy: 380.0,
-            },
-            distortion: Distortion::from_coeffs(
-                DistortionModel::PlumbBob,
-                &[-0.25, 0.08, 0.001, -0.0005, 0.0],
-            )
-            .unwrap(),
-        }
-    }
 
     fn board() -> Vec<Point3<f64>> {
         (0..6)
