@@ -186,8 +186,11 @@ fn undistort_pixel_is_the_distortion_free_image_of_the_same_ray() {
     assert!((ideal - expected).norm() < 1e-9);
 }
 
-/// The undistorter of many points finds exactly what `undistort` finds point by point,
-/// over whole images of strong lenses and beyond a folding profile's end.
+/// The undistorter of many points finds the preimage `undistort` finds point by point,
+/// over whole images of strong lenses and beyond a folding profile's end: the same
+/// points refused, and each found point the same one to rounding. Near a fold the map's
+/// Jacobian is nearly singular and two exact solutions of the same equation may differ
+/// by a few 1e-12 while both distort back onto the point.
 #[test]
 fn the_undistorter_agrees_with_undistort() {
     let folding = Distortion::PlumbBob {
@@ -209,8 +212,13 @@ fn the_undistorter_agrees_with_undistort() {
                 match (one, many) {
                     (Some(a), Some(b)) => {
                         assert!(
-                            (a - b).norm() <= 1e-12 * a.norm().max(1.0),
+                            (a - b).norm() <= 1e-10 * a.norm().max(1.0),
                             "{distortion:?} at {p}: {a} against {b}"
+                        );
+                        let back = distortion.distort(&b);
+                        assert!(
+                            (back - p).norm() <= 1e-12 * p.norm().max(1.0),
+                            "{distortion:?} at {p}: {b} distorts to {back}"
                         );
                         compared += 1;
                     }

@@ -226,8 +226,20 @@ impl Distortion {
         }
     }
 
-    /// Derivative of [`Distortion::distort`] with respect to the undistorted coordinate.
+    /// The derivative of [`Distortion::distort`] with respect to the undistorted
+    /// coordinate.
     pub(crate) fn distort_jacobian_point(&self, p: &Vector2<f64>) -> Matrix2<f64> {
+        self.distort_with_point_jacobian(p).1
+    }
+
+    /// [`Distortion::distort`] and its derivative with respect to the undistorted
+    /// coordinate, sharing the radial terms: what pose refinement and undistortion
+    /// evaluate for every point at every iteration.
+    #[inline]
+    pub(crate) fn distort_with_point_jacobian(
+        &self,
+        p: &Vector2<f64>,
+    ) -> (Vector2<f64>, Matrix2<f64>) {
         let (x, y) = (p.x, p.y);
         let r2 = x * x + y * y;
         let (rad, drad, p1, p2) = match self {
@@ -248,7 +260,7 @@ impl Distortion {
             Self::Equidistant { coeffs } => {
                 let r = r2.sqrt();
                 if r < 1e-12 {
-                    return Matrix2::identity();
+                    return (*p, Matrix2::identity());
                 }
                 let [k1, k2, k3, k4] = *coeffs;
                 let theta = r.atan();
@@ -260,15 +272,19 @@ impl Distortion {
                 let scale = theta_d / r;
                 let dscale = (dtheta_d / (1.0 + r2) - scale) / r;
                 let outer = p * p.transpose() * (dscale / r);
-                return Matrix2::identity() * scale + outer;
+                return (p * scale, Matrix2::identity() * scale + outer);
             }
         };
         // radial = rad(r2), d r2 / dx = 2x.
-        Matrix2::new(
-            rad + 2.0 * x * x * drad + 2.0 * p1 * y + 6.0 * p2 * x,
-            2.0 * x * y * drad + 2.0 * p1 * x + 2.0 * p2 * y,
-            2.0 * x * y * drad + 2.0 * p1 * x + 2.0 * p2 * y,
-            rad + 2.0 * y * y * drad + 6.0 * p1 * y + 2.0 * p2 * x,
+        let off_diagonal = 2.0 * x * y * drad + 2.0 * p1 * x + 2.0 * p2 * y;
+        (
+            tangential(x, y, r2, rad, p1, p2),
+            Matrix2::new(
+                rad + 2.0 * x * x * drad + 2.0 * p1 * y + 6.0 * p2 * x,
+                off_diagonal,
+                off_diagonal,
+                rad + 2.0 * y * y * drad + 6.0 * p1 * y + 2.0 * p2 * x,
+            ),
         )
     }
 }

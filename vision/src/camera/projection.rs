@@ -57,6 +57,7 @@ impl CameraModel {
     /// the pose that put it there (left perturbation, see [`retract_pose`]): what pose
     /// estimation needs, without the intrinsics' and distortion's derivatives. `None`
     /// when the point is not in front of the camera.
+    #[inline]
     pub fn project_with_pose_jacobian(
         &self,
         point_in_camera: &Point3<f64>,
@@ -65,36 +66,30 @@ impl CameraModel {
         if z <= 0.0 {
             return None;
         }
-        let normalized = Vector2::new(x / z, y / z);
-        let d_distorted = self.distortion.distort_jacobian_point(&normalized);
-        let pixel = self
-            .intrinsics
-            .pixel_from_normalized(&self.distortion.distort(&normalized));
-        // d(pixel)/d(point) = F * D * d(normalized)/d(point), written out.
-        let (fx, fy) = (self.intrinsics.fx, self.intrinsics.fy);
         let inv_z = 1.0 / z;
-        let a = Matrix2::new(
-            fx * d_distorted[(0, 0)],
-            fx * d_distorted[(0, 1)],
-            fy * d_distorted[(1, 0)],
-            fy * d_distorted[(1, 1)],
-        ) * inv_z;
-        let d_pixel_d_point = Matrix2x3::new(
-            a[(0, 0)],
-            a[(0, 1)],
-            -(a[(0, 0)] * normalized.x + a[(0, 1)] * normalized.y),
-            a[(1, 0)],
-            a[(1, 1)],
-            -(a[(1, 0)] * normalized.x + a[(1, 1)] * normalized.y),
+        let normalized = Vector2::new(x * inv_z, y * inv_z);
+        let (distorted, d_distorted) = self.distortion.distort_with_point_jacobian(&normalized);
+        let pixel = self.intrinsics.pixel_from_normalized(&distorted);
+        // d(pixel)/d(point) = F * D * d(normalized)/d(point), written out: each row is
+        // (a0, a1, -(a0 x + a1 y)) / z.
+        let (fx, fy) = (self.intrinsics.fx, self.intrinsics.fy);
+        let row = |f: f64, d0: f64, d1: f64| {
+            let (a0, a1) = (f * d0 * inv_z, f * d1 * inv_z);
+            Vector3::new(a0, a1, -(a0 * normalized.x + a1 * normalized.y))
+        };
+        let rows = [
+            row(fx, d_distorted[(0, 0)], d_distorted[(0, 1)]),
+            row(fy, d_distorted[(1, 0)], d_distorted[(1, 1)]),
+        ];
+        // d(exp(omega) X + tau) / d(omega, tau) at 0 is [-[X]x, I]; a row `a` times
+        // -[X]x is (X x a)^T.
+        let point = point_in_camera.coords;
+        let (turn_u, turn_v) = (point.cross(&rows[0]), point.cross(&rows[1]));
+        #[rustfmt::skip]
+        let d_pixel_d_pose = Matrix2x6::new(
+            turn_u.x, turn_u.y, turn_u.z, rows[0].x, rows[0].y, rows[0].z,
+            turn_v.x, turn_v.y, turn_v.z, rows[1].x, rows[1].y, rows[1].z,
         );
-        // d(exp(omega) X + tau) / d(omega, tau) at 0 is [-[X]x, I].
-        let mut d_pixel_d_pose = Matrix2x6::zeros();
-        d_pixel_d_pose
-            .fixed_view_mut::<2, 3>(0, 0)
-            .copy_from(&(d_pixel_d_point * -point_in_camera.coords.cross_matrix()));
-        d_pixel_d_pose
-            .fixed_view_mut::<2, 3>(0, 3)
-            .copy_from(&d_pixel_d_point);
         Some((pixel, d_pixel_d_pose))
     }
 

@@ -12,7 +12,7 @@
 //! models the tangential terms are then added by damped Newton on the full 2D map with
 //! its analytic Jacobian, starting from the radial solution.
 
-use nalgebra::{Matrix2, Vector2};
+use nalgebra::Vector2;
 
 use super::Distortion;
 
@@ -48,9 +48,16 @@ impl Distortion {
                 branch_end(|r| self.radial_profile(r), PINHOLE_RADIUS_LIMIT)
             }
         };
+        let branch_top = match self {
+            Self::Equidistant { .. } => self.equidistant_profile(branch_end).0,
+            Self::PlumbBob { .. } | Self::RationalPolynomial { .. } => {
+                self.radial_profile(branch_end).0
+            }
+        };
         Undistorter {
             distortion: self,
             branch_end,
+            branch_top,
         }
     }
 
@@ -61,10 +68,19 @@ impl Distortion {
         distorted: &Vector2<f64>,
         branch_end: Option<f64>,
     ) -> Option<Vector2<f64>> {
-        let solve = |f: &dyn Fn(f64) -> (f64, f64), target: f64, limit: f64| match branch_end {
-            Some(end) => solve_below(f, target, end),
-            None => solve_first_branch(f, target, limit),
-        };
+        // Below a known end of the branch the profile is solved directly (inlined);
+        // otherwise the branch is found first.
+        fn solve(
+            f: impl Fn(f64) -> (f64, f64),
+            target: f64,
+            limit: f64,
+            branch_end: Option<f64>,
+        ) -> Option<f64> {
+            match branch_end {
+                Some(end) => solve_below(f, target, end),
+                None => solve_first_branch(&f, target, limit),
+            }
+        }
         if !distorted.x.is_finite() || !distorted.y.is_finite() {
             return None;
         }
@@ -75,7 +91,7 @@ impl Distortion {
                     return Some(*distorted);
                 }
                 let theta_d = |t: f64| self.equidistant_profile(t);
-                let theta = solve(&theta_d, rd, std::f64::consts::FRAC_PI_2)?;
+                let theta = solve(theta_d, rd, std::f64::consts::FRAC_PI_2, branch_end)?;
                 if theta >= std::f64::consts::FRAC_PI_2 {
                     return None;
                 }
@@ -90,7 +106,7 @@ impl Distortion {
                 let r = if rd == 0.0 {
                     0.0
                 } else {
-                    solve(&radial, rd, PINHOLE_RADIUS_LIMIT)?
+                    solve(radial, rd, PINHOLE_RADIUS_LIMIT, branch_end)?
                 };
                 let start = if rd == 0.0 {
                     *distorted
@@ -161,21 +177,26 @@ impl Distortion {
         let scale = target.norm().max(1.0);
         let tolerance = 1e-13 * scale;
         let mut p = start;
-        let mut residual = self.distort(&p) - target;
+        let (distorted, mut jacobian) = self.distort_with_point_jacobian(&p);
+        let mut residual = distorted - target;
+        let mut residual_norm = residual.norm();
         for _ in 0..100 {
-            if residual.norm() <= tolerance {
+            if residual_norm <= tolerance {
                 break;
             }
-            let jacobian: Matrix2<f64> = self.distort_jacobian_point(&p);
             let step = jacobian.try_inverse()? * residual;
             let mut alpha = 1.0;
             let mut improved = false;
             for _ in 0..40 {
                 let candidate = p - step * alpha;
-                let candidate_residual = self.distort(&candidate) - target;
-                if candidate_residual.norm() < residual.norm() {
+                let (distorted, candidate_jacobian) = self.distort_with_point_jacobian(&candidate);
+                let candidate_residual = distorted - target;
+                let candidate_norm = candidate_residual.norm();
+                if candidate_norm < residual_norm {
                     p = candidate;
                     residual = candidate_residual;
+                    residual_norm = candidate_norm;
+                    jacobian = candidate_jacobian;
                     improved = true;
                     break;
                 }
@@ -187,8 +208,8 @@ impl Distortion {
         }
         let within_range = p.norm() < PINHOLE_RADIUS_LIMIT
             && self.radial_profile(p.norm()).1 > 0.0
-            && self.distort_jacobian_point(&p).determinant() > 0.0;
-        (residual.norm() <= 1e-9 * scale && within_range).then_some(p)
+            && jacobian.determinant() > 0.0;
+        (residual_norm <= 1e-9 * scale && within_range).then_some(p)
     }
 }
 
@@ -196,14 +217,50 @@ impl Distortion {
 pub struct Undistorter<'a> {
     distortion: &'a Distortion,
     branch_end: f64,
+    /// The radial profile's value at `branch_end`: no larger distorted radius has a
+    /// preimage on the branch.
+    branch_top: f64,
 }
 
 impl Undistorter<'_> {
-    /// The undistorted normalized coordinate whose distortion is `distorted`, exactly
-    /// as [`Distortion::undistort`] finds it.
+    /// The undistorted normalized coordinate whose distortion is `distorted`: the
+    /// point [`Distortion::undistort`] finds, to rounding.
+    ///
+    /// For the pinhole models, Newton on the full 2D map starts from one fixed-point
+    /// step (`distorted / radial(|distorted|^2)`) instead of the solved radial equation,
+    /// which halves the cost; its result is kept only when it lies within the known end
+    /// of the first branch, and the radial equation is solved otherwise.
     pub fn undistort(&self, distorted: &Vector2<f64>) -> Option<Vector2<f64>> {
+        self.undistort_pinhole_directly(distorted).or_else(|| {
+            self.distortion
+                .undistort_on_branch(distorted, Some(self.branch_end))
+        })
+    }
+
+    fn undistort_pinhole_directly(&self, distorted: &Vector2<f64>) -> Option<Vector2<f64>> {
+        if matches!(self.distortion, Distortion::Equidistant { .. })
+            || !distorted.iter().all(|v| v.is_finite())
+        {
+            return None;
+        }
+        let rd = distorted.norm();
+        // NaN included: beyond the branch's top the radial equation has no solution,
+        // and the radial path refuses the point.
+        if rd.is_nan() || rd > self.branch_top || self.branch_top.is_nan() {
+            return None;
+        }
+        let radial = if rd > 0.0 {
+            self.distortion.radial_profile(rd).0 / rd
+        } else {
+            1.0
+        };
+        // NaN (a rational denominator at zero) is refused with the rest.
+        if radial.is_nan() || radial <= 0.0 {
+            return None;
+        }
         self.distortion
-            .undistort_on_branch(distorted, Some(self.branch_end))
+            .refine_pinhole(distorted, distorted / radial)
+            .filter(|p| p.norm() < self.branch_end)
     }
 }
 
@@ -240,7 +297,7 @@ fn branch_end(f: impl Fn(f64) -> (f64, f64), limit: f64) -> f64 {
 /// Solves `f(t) = target` (with `target > 0`) on `[0, end]`, where `f` increases from
 /// `f(0) = 0`: safeguarded Newton from `t = target` (the slope at zero is 1). `None`
 /// when `f(end)` falls short of `target`.
-fn solve_below(f: &dyn Fn(f64) -> (f64, f64), target: f64, end: f64) -> Option<f64> {
+fn solve_below(f: impl Fn(f64) -> (f64, f64), target: f64, end: f64) -> Option<f64> {
     let (value_end, _) = f(end);
     // NaN included: a branch that ends short of the target has no preimage there.
     if value_end.is_nan() || value_end < target {

@@ -7,7 +7,7 @@ use nalgebra::{Isometry3, Matrix3, Matrix6, Vector3};
 use super::epnp::epnp;
 use super::ippe::ippe;
 use super::ransac::{P3p, RansacOptions, ransac};
-use super::refine::{Refined, refine};
+use super::refine::{Refined, refine, refine_excess};
 use super::sqpnp::sqpnp;
 use super::{Correspondences, PnpError};
 use crate::camera::CameraModel;
@@ -62,7 +62,8 @@ pub struct PlanarAmbiguity {
     /// How many standard deviations of pixel noise the second pose is worse:
     /// `sqrt((SSE2 - SSE1) / sigma^2)`.
     pub significance: f64,
-    /// The second pose, refined.
+    /// The second pose, refined until its squared error's excess over the best's is
+    /// known to a thousandth.
     pub camera_from_target: Isometry3<f64>,
     /// Its RMS reprojection error, pixels.
     pub rms_px: f64,
@@ -95,10 +96,11 @@ pub struct PoseEstimate {
 
 /// Estimates `camera_from_target` from 4 or more correspondences seen by `camera`.
 ///
-/// Planar targets start from both IPPE poses and SQPnP's minima, others from SQPnP's
-/// minima (EPnP when those find nothing); every distinct start is refined on the pixel
-/// error through the full camera model and the best is kept. The pose is refused, with the reason, when the points
-/// are degenerate (coincident or on one line), the pose is not determined, points
+/// Planar targets start from both IPPE poses (and SQPnP's minima when those refine to one
+/// minimum or explain the pixels no better than `options.max_rms_px`), others from SQPnP's minima (EPnP when
+/// those find nothing); every distinct start is refined on the pixel error through the
+/// full camera model and the best is kept. The pose is refused, with the reason, when
+/// the points are degenerate (coincident or on one line), the pose is not determined, points
 /// would be behind the camera, the error is above `options.max_rms_px`, or a distinct
 /// second pose of a planar target explains the pixels within
 /// `options.min_ambiguity_significance` standard deviations of noise as well.
@@ -124,25 +126,35 @@ pub fn estimate_pose(
         ),
     };
     let shape = Shape::of(&used.target_points)?;
-    let mut candidates = starting_poses(&used, shape);
-    if candidates.is_empty() {
-        return Err(PnpError::NoSolution(
-            "no solver found a pose with every point in front of the camera".into(),
-        ));
-    }
-    let mut refined: Vec<(Refined, Solver)> = Vec::new();
-    let mut last_error = None;
-    for (start, solver) in candidates.drain(..) {
-        match refine(camera, &used, &start) {
-            Ok(r) if is_finite(&r) => refined.push((r, solver)),
-            Ok(_) => last_error = Some(PnpError::NoSolution("refinement diverged".into())),
-            Err(e) => last_error = Some(e),
+    // A planar target starts from both IPPE poses, and SQPnP is asked as well when they
+    // refine to one minimum (a plane has two, and the other may lie elsewhere) or
+    // explain the pixels no better than the bound allows; any other target starts from
+    // SQPnP's minima, and EPnP is the last resort.
+    let mut search = StartSearch::new(options);
+    let ippe_starts = match shape {
+        Shape::Planar => ippe_starts(&used),
+        Shape::General => Vec::new(),
+    };
+    if ippe_starts.is_empty() {
+        search.refine_all(camera, &used, sqpnp_starts(&used));
+    } else {
+        search.refine_all(camera, &used, ippe_starts);
+        if search.minima() < 2
+            || search
+                .refined
+                .first()
+                .is_none_or(|c| c.refined.rms_px > options.max_rms_px)
+        {
+            search.refine_all(camera, &used, sqpnp_starts(&used));
         }
     }
-    refined.sort_by(|a, b| a.0.rms_px.total_cmp(&b.0.rms_px));
-    let Some((best, solver)) = refined.first().cloned() else {
-        return Err(last_error.unwrap_or(PnpError::NoSolution("refinement failed".into())));
-    };
+    if search.refined.is_empty()
+        && let Ok(pose) = epnp(&used.target_points, &used.normalized)
+    {
+        search.refine_all(camera, &used, vec![(pose, Solver::Epnp)]);
+    }
+    let (best, solver) = search.best(camera, &used)?;
+    let refined = &search.refined;
     let behind = used
         .target_points
         .iter()
@@ -165,7 +177,7 @@ pub fn estimate_pose(
         .max(f64::MIN_POSITIVE);
     let covariance = covariance(&best, pixel_noise_px)?;
     let ambiguity = match shape {
-        Shape::Planar => second_pose(&best, &refined, &covariance, pixel_noise_px),
+        Shape::Planar => second_pose(&best, refined, &covariance, pixel_noise_px),
         Shape::General => None,
     };
     if let Some(a) = &ambiguity
@@ -234,39 +246,149 @@ impl Shape {
     }
 }
 
-/// The starting poses for a target of this shape: both IPPE poses of a planar target
-/// and SQPnP's minima (for any target); EPnP's pose when none of those is found. A
-/// start that nearly repeats an earlier one is left out: it would refine to the same
-/// minimum.
-fn starting_poses(c: &Correspondences, shape: Shape) -> Vec<(Isometry3<f64>, Solver)> {
-    let mut starts = Vec::new();
-    if shape == Shape::Planar
-        && let Ok(solutions) = ippe(&c.target_points, &c.normalized)
-    {
-        starts.push((solutions.best, Solver::Ippe));
-        if solutions.second_rms.is_finite() {
-            starts.push((solutions.second, Solver::Ippe));
-        }
+/// Both IPPE poses of a planar target, best first; none when IPPE fails.
+fn ippe_starts(c: &Correspondences) -> Vec<(Isometry3<f64>, Solver)> {
+    let Ok(solutions) = ippe(&c.target_points, &c.normalized) else {
+        return Vec::new();
+    };
+    let mut starts = vec![(solutions.best, Solver::Ippe)];
+    if solutions.second_rms.is_finite() {
+        starts.push((solutions.second, Solver::Ippe));
     }
-    if let Ok(minima) = sqpnp(&c.target_points, &c.normalized) {
-        starts.extend(
+    starts
+}
+
+/// SQPnP's minima, best first.
+fn sqpnp_starts(c: &Correspondences) -> Vec<(Isometry3<f64>, Solver)> {
+    sqpnp(&c.target_points, &c.normalized)
+        .map(|minima| {
             minima
                 .into_iter()
-                .map(|m| (m.camera_from_target, Solver::Sqpnp)),
-        );
-    }
-    if starts.is_empty()
-        && let Ok(pose) = epnp(&c.target_points, &c.normalized)
-    {
-        starts.push((pose, Solver::Epnp));
-    }
-    let mut distinct: Vec<(Isometry3<f64>, Solver)> = Vec::with_capacity(starts.len());
-    for (pose, solver) in starts {
-        if !distinct.iter().any(|(kept, _)| same_start(kept, &pose)) {
-            distinct.push((pose, solver));
+                .map(|m| (m.camera_from_target, Solver::Sqpnp))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// A start refined.
+#[derive(Clone)]
+struct Candidate {
+    refined: Refined,
+    solver: Solver,
+    /// Whether refinement reached the minimum in full, rather than stopping once the
+    /// pose was known to be worse than the best (see [`refine_excess`]).
+    converged: bool,
+}
+
+/// The starts tried and what they refined to, best first.
+struct StartSearch {
+    tried: Vec<Isometry3<f64>>,
+    refined: Vec<Candidate>,
+    last_error: Option<PnpError>,
+    /// Standard deviations of pixel noise by which a pose must be worse than the best
+    /// before its refinement may stop short of its minimum.
+    clearly_worse: f64,
+    pixel_noise_px: f64,
+}
+
+/// Rotation within which two refined poses are one minimum reached twice, radians
+/// (0.06 degrees): refinement in a flat valley may stop a few millionths of a radian
+/// short; distinct minima are degrees apart.
+const SAME_MINIMUM_RAD: f64 = 1e-3;
+
+/// How many times the ambiguity test's significance a pose must be worse than the best
+/// before its refinement may stop short of its minimum: far from the line the test
+/// draws, where a thousandth of the excess cannot move a pose across it.
+const CLEARLY_WORSE: f64 = 10.0;
+
+impl StartSearch {
+    fn new(options: &PoseOptions) -> Self {
+        Self {
+            tried: Vec::new(),
+            refined: Vec::new(),
+            last_error: None,
+            clearly_worse: CLEARLY_WORSE * options.min_ambiguity_significance.max(1.0),
+            pixel_noise_px: options.pixel_noise_px,
         }
     }
-    distinct
+
+    /// Refines each start that does not nearly repeat one tried before (it would refine
+    /// to the same minimum). The first pose is refined in full; later ones only until
+    /// they are known to be worse than the best so far, or in full when they are not.
+    fn refine_all(
+        &mut self,
+        camera: &CameraModel,
+        c: &Correspondences,
+        starts: Vec<(Isometry3<f64>, Solver)>,
+    ) {
+        for (start, solver) in starts {
+            if self.tried.iter().any(|kept| same_start(kept, &start)) {
+                continue;
+            }
+            self.tried.push(start);
+            let result = match self.refined.first() {
+                Some(best) => {
+                    let noise = measured_noise(&best.refined).max(self.pixel_noise_px);
+                    let margin = (self.clearly_worse * noise).powi(2);
+                    refine_excess(camera, c, &start, squared_error(&best.refined), margin)
+                }
+                None => refine(camera, c, &start).map(|r| (r, true)),
+            };
+            match result {
+                Ok((refined, converged)) if is_finite(&refined) => {
+                    let candidate = Candidate {
+                        refined,
+                        solver,
+                        converged,
+                    };
+                    let at = self
+                        .refined
+                        .partition_point(|kept| kept.refined.rms_px <= candidate.refined.rms_px);
+                    self.refined.insert(at, candidate);
+                }
+                Ok(_) => self.last_error = Some(PnpError::NoSolution("refinement diverged".into())),
+                Err(e) => self.last_error = Some(e),
+            }
+        }
+    }
+
+    /// How many distinct poses the starts refined to.
+    fn minima(&self) -> usize {
+        let mut distinct: Vec<&Isometry3<f64>> = Vec::new();
+        for c in &self.refined {
+            let pose = &c.refined.camera_from_target;
+            if !distinct
+                .iter()
+                .any(|kept| kept.rotation.angle_to(&pose.rotation) <= SAME_MINIMUM_RAD)
+            {
+                distinct.push(pose);
+            }
+        }
+        distinct.len()
+    }
+
+    /// The best pose, refined in full, and the solver it started from.
+    fn best(
+        &mut self,
+        camera: &CameraModel,
+        c: &Correspondences,
+    ) -> Result<(Refined, Solver), PnpError> {
+        let Some(best) = self.refined.first_mut() else {
+            return Err(self.last_error.take().unwrap_or(PnpError::NoSolution(
+                "no solver found a pose with every point in front of the camera".into(),
+            )));
+        };
+        if !best.converged {
+            best.refined = refine(camera, c, &best.refined.camera_from_target)?;
+            best.converged = true;
+        }
+        Ok((best.refined.clone(), best.solver))
+    }
+}
+
+/// The sum of a refined pose's squared pixel errors.
+fn squared_error(r: &Refined) -> f64 {
+    r.residuals.iter().map(|v| v.norm_squared()).sum()
 }
 
 /// Whether two starting poses are so close (a hundredth of a degree, a ten-thousandth
@@ -354,7 +476,7 @@ fn covariance(r: &Refined, pixel_noise_px: f64) -> Result<Matrix6<f64>, PnpError
 /// standard deviations of its rotation, so not the same pose seen through noise.
 fn second_pose(
     best: &Refined,
-    refined: &[(Refined, Solver)],
+    refined: &[Candidate],
     covariance: &Matrix6<f64>,
     pixel_noise_px: f64,
 ) -> Option<PlanarAmbiguity> {
@@ -369,7 +491,7 @@ fn second_pose(
     let same_pose_within = (3.0 * rotation_sigma).max(1e-6);
     refined
         .iter()
-        .map(|(r, _)| {
+        .map(|Candidate { refined: r, .. }| {
             let angle = best
                 .camera_from_target
                 .rotation

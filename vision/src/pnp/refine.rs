@@ -12,6 +12,20 @@ const MAX_ITERATIONS: usize = 100;
 const RELATIVE_TOLERANCE: f64 = 1e-12;
 /// Step (radians and metres) below which refinement has converged.
 const STEP_TOLERANCE: f64 = 1e-12;
+/// Levenberg-Marquardt damping of the first step, relative to the diagonal of `J^T J`:
+/// starts come from solvers that are already close, where Gauss-Newton's step is the
+/// right one.
+const INITIAL_DAMPING: f64 = 1e-6;
+/// The least damping. A distant target leaves `J^T J` ill-conditioned (depth against
+/// tilt); damping above its smallest eigenvalue would shorten every step along that
+/// valley and make convergence linear.
+const MIN_DAMPING: f64 = 1e-12;
+/// [`refine_excess`]: the fraction of the error's excess over the floor to which the
+/// error is located.
+const EXCESS_PRECISION: f64 = 1e-3;
+/// [`refine_excess`]: decreases must shrink at least this fast from one step to the
+/// next for their geometric tail to be trusted as what is left to gain.
+const MAX_CONVERGENCE_RATIO: f64 = 0.5;
 
 /// A refined pose and how well it explains the pixels.
 #[derive(Clone, Debug, PartialEq)]
@@ -30,8 +44,7 @@ pub struct Refined {
     pub iterations: usize,
 }
 
-/// The squared error, `J^T J` and `J^T r` of a pose; `None` when a point is not in
-/// front of the camera.
+/// The squared error, `J^T J` and `J^T r` of a pose.
 struct Linearization {
     residuals: Vec<Vector2<f64>>,
     cost: f64,
@@ -39,33 +52,93 @@ struct Linearization {
     jtr: Vector6<f64>,
 }
 
+/// The Jacobian's columns and the residuals of one pose, stored column by column (six
+/// columns of `J`, then `r`, each with a row per pixel coordinate): `J^T J` and `J^T r`
+/// are then 27 dot products of contiguous columns. Kept between iterations.
+struct Columns {
+    rows: usize,
+    data: Vec<f64>,
+}
+
+impl Columns {
+    fn new(points: usize) -> Self {
+        Self {
+            rows: 2 * points,
+            data: vec![0.0; 7 * 2 * points],
+        }
+    }
+
+    fn column(&self, c: usize) -> &[f64] {
+        &self.data[c * self.rows..(c + 1) * self.rows]
+    }
+}
+
+/// `a . b`, in four independent sums so that the compiler can keep them in vector
+/// registers.
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let mut sums = [0.0; 4];
+    let (a_chunks, b_chunks) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = a_chunks
+        .remainder()
+        .iter()
+        .zip(b_chunks.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in a_chunks.zip(b_chunks) {
+        for k in 0..4 {
+            sums[k] += x[k] * y[k];
+        }
+    }
+    (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
+}
+
+/// Linearizes the pixel error at `camera_from_target`; `None` when a point is not in
+/// front of the camera.
 fn linearize(
     camera: &CameraModel,
     correspondences: &Correspondences,
     camera_from_target: &Isometry3<f64>,
+    columns: &mut Columns,
 ) -> Option<Linearization> {
-    let mut lin = Linearization {
-        residuals: Vec::with_capacity(correspondences.len()),
-        cost: 0.0,
-        jtj: Matrix6::zeros(),
-        jtr: Vector6::zeros(),
-    };
+    let rows = columns.rows;
     let rotation = camera_from_target.rotation.to_rotation_matrix();
     let translation = camera_from_target.translation.vector;
-    for (point, pixel) in correspondences
+    let mut residuals = Vec::with_capacity(correspondences.len());
+    for (i, (point, pixel)) in correspondences
         .target_points
         .iter()
         .zip(&correspondences.pixels)
+        .enumerate()
     {
         let in_camera = Point3::from(rotation * point.coords + translation);
         let (projected, j) = camera.project_with_pose_jacobian(&in_camera)?;
         let r = projected - pixel;
-        lin.jtj += j.transpose() * j;
-        lin.jtr += j.transpose() * r;
-        lin.cost += r.norm_squared();
-        lin.residuals.push(r);
+        for c in 0..6 {
+            columns.data[c * rows + 2 * i] = j[(0, c)];
+            columns.data[c * rows + 2 * i + 1] = j[(1, c)];
+        }
+        columns.data[6 * rows + 2 * i] = r.x;
+        columns.data[6 * rows + 2 * i + 1] = r.y;
+        residuals.push(r);
     }
-    Some(lin)
+    let residual = columns.column(6);
+    let mut jtj = Matrix6::zeros();
+    let mut jtr = Vector6::zeros();
+    for a in 0..6 {
+        let column = columns.column(a);
+        for b in a..6 {
+            let value = dot(column, columns.column(b));
+            jtj[(a, b)] = value;
+            jtj[(b, a)] = value;
+        }
+        jtr[a] = dot(column, residual);
+    }
+    Some(Linearization {
+        residuals,
+        cost: dot(residual, residual),
+        jtj,
+        jtr,
+    })
 }
 
 /// Refines `initial` to the nearest minimum of the squared pixel reprojection error
@@ -79,6 +152,31 @@ pub fn refine(
     correspondences: &Correspondences,
     initial: &Isometry3<f64>,
 ) -> Result<Refined, PnpError> {
+    refine_to(camera, correspondences, initial, None).map(|(refined, _)| refined)
+}
+
+/// [`refine`] for a pose that only has to be told from a better one whose squared error
+/// is `floor`: it stops once the squared error's excess over `floor` is at least
+/// `margin` and known to a thousandth. A large-residual minimum (the wrong pose of a
+/// planar target) is approached by Gauss-Newton only linearly, and its last digits
+/// would cost most of the iterations. Returns whether the minimum was reached in full;
+/// it always is when the excess stays below `margin`.
+pub(crate) fn refine_excess(
+    camera: &CameraModel,
+    correspondences: &Correspondences,
+    initial: &Isometry3<f64>,
+    floor: f64,
+    margin: f64,
+) -> Result<(Refined, bool), PnpError> {
+    refine_to(camera, correspondences, initial, Some((floor, margin)))
+}
+
+fn refine_to(
+    camera: &CameraModel,
+    correspondences: &Correspondences,
+    initial: &Isometry3<f64>,
+    floor: Option<(f64, f64)>,
+) -> Result<(Refined, bool), PnpError> {
     if correspondences.len() < 3 {
         return Err(PnpError::TooFewPoints {
             needed: 3,
@@ -93,12 +191,20 @@ pub fn refine(
             .count()
     };
     let mut pose = *initial;
-    let mut lin = linearize(camera, correspondences, &pose).ok_or(PnpError::BehindCamera {
-        count: behind(&pose),
-        total: correspondences.len(),
-    })?;
-    let mut lambda = 1e-3;
+    let mut columns = Columns::new(correspondences.len());
+    let mut lin =
+        linearize(camera, correspondences, &pose, &mut columns).ok_or(PnpError::BehindCamera {
+            count: behind(&pose),
+            total: correspondences.len(),
+        })?;
+    let mut lambda = INITIAL_DAMPING;
+    // Nielsen's rule: the damping falls or rises with how well the model predicted the
+    // last accepted step, and grows ever faster over consecutive refusals.
+    let mut refusal_growth = 2.0;
     let mut iterations = 0;
+    // The two decreases before the last accepted step, latest first.
+    let mut earlier = [f64::NAN; 2];
+    let mut converged = false;
     while iterations < MAX_ITERATIONS {
         iterations += 1;
         let mut damped = lin.jtj;
@@ -112,25 +218,39 @@ pub fn refine(
         // Gauss-Newton's predicted decrease: nothing left to gain means converged.
         let predicted = -(lin.jtr.dot(&step)) - 0.5 * step.dot(&(lin.jtj * step));
         if predicted <= RELATIVE_TOLERANCE * lin.cost || step.norm() < STEP_TOLERANCE {
+            converged = true;
             break;
         }
         let candidate = retract_pose(&pose, &step);
-        match linearize(camera, correspondences, &candidate) {
+        match linearize(camera, correspondences, &candidate, &mut columns) {
             Some(next) if next.cost <= lin.cost => {
                 let decrease = lin.cost - next.cost;
                 pose = candidate;
                 lin = next;
-                // Damping never vanishes: far from the minimum, a pure Gauss-Newton step
-                // overshoots and several refused steps would follow.
-                lambda = (lambda / 10.0).max(1e-6);
+                let gain = decrease / predicted;
+                lambda =
+                    (lambda * (1.0 - (2.0 * gain - 1.0).powi(3)).max(1.0 / 3.0)).max(MIN_DAMPING);
+                refusal_growth = 2.0;
                 if decrease <= RELATIVE_TOLERANCE * lin.cost {
+                    converged = true;
                     break;
                 }
+                if let Some((floor, margin)) = floor
+                    && lin.cost - floor >= margin
+                    && excess_known([decrease, earlier[0], earlier[1]], lin.cost - floor)
+                {
+                    break;
+                }
+                earlier = [decrease, earlier[0]];
             }
             // A step that changes the error by no more than rounding: at the minimum.
-            Some(next) if next.cost - lin.cost <= RELATIVE_TOLERANCE * lin.cost => break,
+            Some(next) if next.cost - lin.cost <= RELATIVE_TOLERANCE * lin.cost => {
+                converged = true;
+                break;
+            }
             _ => {
-                lambda *= 10.0;
+                lambda *= refusal_growth;
+                refusal_growth *= 2.0;
                 if lambda > 1e12 {
                     break;
                 }
@@ -138,13 +258,28 @@ pub fn refine(
         }
     }
     let rms_px = (lin.cost / correspondences.len() as f64).sqrt();
-    Ok(Refined {
+    let refined = Refined {
         camera_from_target: pose,
         residuals: lin.residuals,
         rms_px,
         information: lin.jtj,
         iterations,
-    })
+    };
+    Ok((refined, converged))
+}
+
+/// Whether what is left to gain is within [`EXCESS_PRECISION`] of `excess`, from the
+/// last three decreases (latest first): when each shrank from the one before by at most
+/// [`MAX_CONVERGENCE_RATIO`], what is left is estimated as the geometric tail of the
+/// larger of the two ratios.
+fn excess_known(decreases: [f64; 3], excess: f64) -> bool {
+    if decreases.iter().any(|d| d.is_nan()) {
+        return false;
+    }
+    let ratio = (decreases[0] / decreases[1]).max(decreases[1] / decreases[2]);
+    excess > 0.0
+        && ratio <= MAX_CONVERGENCE_RATIO
+        && decreases[0] * ratio / (1.0 - ratio) <= EXCESS_PRECISION * excess
 }
 
 #[cfg(test)]
