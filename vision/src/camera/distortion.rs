@@ -235,7 +235,7 @@ impl Distortion {
     /// [`Distortion::distort`] and its derivative with respect to the undistorted
     /// coordinate, sharing the radial terms: what pose refinement and undistortion
     /// evaluate for every point at every iteration.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn distort_with_point_jacobian(
         &self,
         p: &Vector2<f64>,
