@@ -6,7 +6,9 @@
 pub mod board;
 pub mod calib;
 pub mod camera;
+pub mod handeye;
 pub mod image;
 pub mod pnp;
 pub mod rectify;
+mod rotation;
 pub mod synth;

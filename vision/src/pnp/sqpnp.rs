@@ -42,11 +42,12 @@
 //!   loses one; the p3p module finds them all in closed form).
 
 use nalgebra::{
-    Isometry3, Matrix3, Matrix4x3, Point2, Point3, Rotation3, SMatrix, SVector, Translation3,
-    UnitQuaternion, Vector3,
+    Isometry3, Matrix3, Point2, Point3, Rotation3, SMatrix, SVector, Translation3, UnitQuaternion,
+    Vector3,
 };
 
 use super::{PnpError, check_solver_input};
+use crate::rotation::nearest_rotation;
 
 type Vector9 = SVector<f64, 9>;
 type Matrix9 = SMatrix<f64, 9, 9>;
@@ -583,29 +584,6 @@ impl<'p, 'a> Search<'p, 'a> {
 fn orthogonality_error(e: &Vector9) -> f64 {
     let m = to_matrix(e);
     (m * m.transpose() - Matrix3::identity()).norm_squared()
-}
-
-/// The rotation nearest to `m` in the Frobenius norm: `U diag(1, 1, det(U V^T)) V^T`
-/// from the SVD `m = U S V^T`, which also turns a matrix with `det < 0` into a proper
-/// rotation.
-fn nearest_rotation(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
-    if !m.iter().all(|v| v.is_finite()) {
-        return None;
-    }
-    // The general SVD: nalgebra's special 3x3 SVD goes through m^T m and loses half
-    // the digits of nearly equal singular values. A zero fourth row selects the general
-    // algorithm without allocating and changes neither V nor U's first three rows.
-    let mut padded = Matrix4x3::zeros();
-    padded.fixed_rows_mut::<3>(0).copy_from(m);
-    let svd = padded.try_svd(true, true, f64::EPSILON, DECOMPOSITION_MAX_ITERATIONS)?;
-    let u: Matrix3<f64> = svd.u?.fixed_rows::<3>(0).into_owned();
-    let v_t = svd.v_t?;
-    let mut sign = Matrix3::identity();
-    if (u * v_t).determinant() < 0.0 {
-        sign[(2, 2)] = -1.0;
-    }
-    let rotation = u * sign * v_t;
-    rotation.iter().all(|v| v.is_finite()).then_some(rotation)
 }
 
 /// The SQP iteration on `r^T Omega r` over rotations.
