@@ -23,6 +23,9 @@
 //! - `AX = ZB` on the samples themselves (robot-world hand-eye), which returns both
 //!   transforms: Shah ([`shah`]) and Li ([`li`]).
 //!
+//! [`refine()`] then refines any method's result jointly with the target's pose and the
+//! robot poses on the pixels of the target's points over all samples.
+//!
 //! A set of samples whose motions cannot determine the transform (too few, too little
 //! rotation, all rotation axes parallel) is refused with advice on the poses to add;
 //! one that determines it weakly is solved with a warning.
@@ -34,11 +37,13 @@ mod horaud;
 mod li;
 mod motion;
 mod park;
+mod refine;
 mod shah;
 mod tsai;
 
 pub use error::HandEyeError;
 pub use motion::{MotionSpread, motion_spread};
+pub use refine::{RefineOptions, RefinedHandEye, TargetObservation, Uncertainty, refine};
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
