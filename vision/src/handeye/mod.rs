@@ -38,12 +38,14 @@ mod li;
 mod motion;
 mod park;
 mod refine;
+mod screen;
 mod shah;
 mod tsai;
 
 pub use error::HandEyeError;
 pub use motion::{MotionSpread, motion_spread};
 pub use refine::{RefineOptions, RefinedHandEye, TargetObservation, Uncertainty, refine};
+pub use screen::{RejectedSample, calibrate_screened};
 
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
@@ -222,6 +224,21 @@ impl HandEye {
     }
 }
 
+impl HandEye {
+    /// How far a sample's measured target pose is from this calibration's prediction
+    /// for its robot pose.
+    pub fn residual(&self, sample: &Sample) -> SampleResidual {
+        let predicted = self.predicted_camera_from_target(&sample.base_from_tool);
+        let error = predicted.inverse() * sample.camera_from_target;
+        SampleResidual {
+            rotation_rad: error.rotation.angle(),
+            translation_m: (predicted.translation.vector
+                - sample.camera_from_target.translation.vector)
+                .norm(),
+        }
+    }
+}
+
 /// How far one sample's measured target pose is from the calibration's prediction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SampleResidual {
@@ -325,19 +342,7 @@ pub fn calibrate(
         return Err(failed("non-finite result"));
     }
     let hand_eye = HandEye::new(setup, mount_from_camera, anchor_from_target);
-    let residuals = samples
-        .iter()
-        .map(|s| {
-            let predicted = hand_eye.predicted_camera_from_target(&s.base_from_tool);
-            let error = predicted.inverse() * s.camera_from_target;
-            SampleResidual {
-                rotation_rad: error.rotation.angle(),
-                translation_m: (predicted.translation.vector
-                    - s.camera_from_target.translation.vector)
-                    .norm(),
-            }
-        })
-        .collect();
+    let residuals = samples.iter().map(|s| hand_eye.residual(s)).collect();
     Ok(Calibration {
         method,
         hand_eye,
@@ -619,5 +624,51 @@ mod tests {
         );
         let (r, t) = errors(c.hand_eye.mount_from_camera(), &tool_from_camera);
         assert!(r < 1e-9 && t < 1e-9);
+    }
+
+    /// Two of ten samples with a target pose 5 degrees and 3 cm off (a misdetection):
+    /// both are left out with their reason, and the result is as good as without them.
+    #[test]
+    fn screening_leaves_out_samples_that_disagree() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        for setup in [Setup::EyeInHand, Setup::EyeToHand] {
+            for _ in 0..10 {
+                let (clean, mount_from_camera, _) =
+                    session(&mut rng, setup, (0.0005, 0.0005), (0.0002, 0.0002));
+                let mut samples = clean.clone();
+                let off =
+                    Isometry3::new(Vector3::new(0.03, 0.0, 0.0), Vector3::new(0.0, 0.087, 0.0));
+                for bad in [2, 7] {
+                    samples[bad].camera_from_target = off * samples[bad].camera_from_target;
+                }
+                for method in Method::ALL {
+                    let (c, rejected) = calibrate_screened(setup, &samples, method).unwrap();
+                    let mut indices: Vec<usize> = rejected.iter().map(|r| r.index).collect();
+                    indices.sort_unstable();
+                    assert_eq!(indices, vec![2, 7], "{setup:?} {method:?}: {rejected:?}");
+                    assert!(rejected.iter().all(|r| r.reason.contains("disagrees")));
+                    let kept: Vec<Sample> = clean
+                        .iter()
+                        .enumerate()
+                        .filter(|(i, _)| ![2, 7].contains(i))
+                        .map(|(_, s)| s.clone())
+                        .collect();
+                    let reference = calibrate(setup, &kept, method).unwrap();
+                    let (r, t) = errors(
+                        c.hand_eye.mount_from_camera(),
+                        reference.hand_eye.mount_from_camera(),
+                    );
+                    assert!(
+                        r < 1e-12 && t < 1e-12,
+                        "{setup:?} {method:?}: {r} rad, {t} m"
+                    );
+                    let (r, t) = errors(c.hand_eye.mount_from_camera(), &mount_from_camera);
+                    assert!(r < 0.01 && t < 0.02, "{setup:?} {method:?}: {r} rad, {t} m");
+                }
+                // Clean samples: nothing left out.
+                let (_, rejected) = calibrate_screened(setup, &clean, Method::Park).unwrap();
+                assert!(rejected.is_empty(), "{setup:?}: {rejected:?}");
+            }
+        }
     }
 }
