@@ -16,12 +16,12 @@
 //! camera report them and returns [`HandEye`], whose variant names the frames.
 //!
 //! Methods, one file each:
-//! - `AX = XB` on the motions between pairs of samples: Tsai-Lenz ([`tsai`]),
-//!   Park-Martin ([`park`]), Horaud-Dornaika ([`horaud`]), Andreff ([`andreff`]) and
-//!   Daniilidis ([`daniilidis`]); the anchor's target pose is then the mean over the
+//! - `AX = XB` on the motions between pairs of samples: Tsai-Lenz (`tsai.rs`),
+//!   Park-Martin (`park.rs`), Horaud-Dornaika (`horaud.rs`), Andreff (`andreff.rs`) and
+//!   Daniilidis (`daniilidis.rs`); the anchor's target pose is then the mean over the
 //!   samples;
 //! - `AX = ZB` on the samples themselves (robot-world hand-eye), which returns both
-//!   transforms: Shah ([`shah`]) and Li ([`li`]).
+//!   transforms: Shah (`shah.rs`) and Li (`li.rs`).
 //!
 //! [`refine()`] then refines any method's result jointly with the target's pose and the
 //! robot poses on the pixels of the target's points over all samples.
