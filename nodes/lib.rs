@@ -1,6 +1,6 @@
 //! stereocal's nodes, offline commands and the pipeline stages they share, one module
 //! per capability: [`rectify`] and [`calibrate`] (each with its node, stage and what
-//! serves them), [`convert`] between ROS messages and vision types, [`composition`]
+//! serves them), [`pose`] and [`handeye`], [`convert`] between ROS messages and vision types, [`composition`]
 //! running several nodes in one process, [`cli`] with one module per `stereocal`
 //! command, and [`tools`] shared by the measuring binaries.
 //!
@@ -12,6 +12,7 @@ pub mod cli;
 pub mod composition;
 pub mod convert;
 pub mod draw;
+pub mod handeye;
 pub mod pose;
 pub mod rectify;
 pub mod target_params;

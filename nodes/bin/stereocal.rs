@@ -17,6 +17,9 @@ enum Command {
     /// Calibrate a camera or a stereo pair from a bag of chessboard images, and write
     /// camera_info YAML files (and stereo.yaml for a pair).
     Calibrate(cli::calibrate::CalibrateArgs),
+    /// Hand-eye calibration of a recorded session: target poses paired with robot poses
+    /// by stamp, every method, the best chosen; writes DIR/handeye.yaml.
+    Handeye(cli::handeye::HandEyeArgs),
     /// The main job on the bundled stereo bag: rectify it offline and through two
     /// rectify nodes over DDS, and measure row alignment against ground truth.
     Demo(cli::demo::DemoArgs),
@@ -44,6 +47,7 @@ fn main() -> anyhow::Result<()> {
         Command::Demo(args) => cli::demo::run(&args),
         Command::Play(args) => cli::play::run(&args),
         Command::Pose(args) => cli::pose::run(&args),
+        Command::Handeye(args) => cli::handeye::run(&args),
         Command::Rectify(args) => cli::rectify::run(&args),
         Command::Synth(args) => cli::synth::run_command(&args),
         Command::Node { node } => cli::node::run(node),

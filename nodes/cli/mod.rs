@@ -3,6 +3,7 @@
 
 pub mod calibrate;
 pub mod demo;
+pub mod handeye;
 pub mod node;
 pub mod play;
 pub mod pose;

@@ -15,4 +15,4 @@ pub use camera_info::{
     info_from_raw_camera,
 };
 pub use image::{Encoding, ImageMsgError, decode_image_into, image_from_msg, msg_from_image};
-pub use pose::{pose_msg, pose_with_covariance_msg, transform_msg};
+pub use pose::{isometry_from_pose_msg, pose_msg, pose_with_covariance_msg, transform_msg};

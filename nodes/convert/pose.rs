@@ -1,6 +1,6 @@
 //! `frame_from_body` transforms as geometry_msgs poses and transforms.
 
-use nalgebra::{Isometry3, Matrix6};
+use nalgebra::{Isometry3, Matrix6, Quaternion as NQuaternion, Translation3, UnitQuaternion};
 use stereocal_msgs::geometry_msgs::{
     Point, Pose, PoseWithCovariance, Quaternion, Transform, Vector3,
 };
@@ -23,6 +23,33 @@ pub fn pose_msg(frame_from_body: &Isometry3<f64>) -> Pose {
             w: q.w,
         },
     }
+}
+
+/// Largest departure of a pose's quaternion from unit length that is taken as rounding
+/// and normalized away; a larger one is refused.
+const UNIT_QUATERNION_TOLERANCE: f64 = 1e-3;
+
+/// The `frame_from_body` a `geometry_msgs/Pose` describes; an error says what is wrong
+/// with it (a non-finite value, a quaternion that is not of unit length).
+pub fn isometry_from_pose_msg(pose: &Pose) -> Result<Isometry3<f64>, String> {
+    let (p, q) = (&pose.position, &pose.orientation);
+    if ![p.x, p.y, p.z, q.x, q.y, q.z, q.w]
+        .iter()
+        .all(|v| v.is_finite())
+    {
+        return Err("non-finite position or orientation".into());
+    }
+    let quaternion = NQuaternion::new(q.w, q.x, q.y, q.z);
+    let norm = quaternion.norm();
+    if (norm - 1.0).abs() > UNIT_QUATERNION_TOLERANCE {
+        return Err(format!(
+            "orientation quaternion of length {norm:.6}, not a rotation (unit length expected)"
+        ));
+    }
+    Ok(Isometry3::from_parts(
+        Translation3::new(p.x, p.y, p.z),
+        UnitQuaternion::from_quaternion(quaternion),
+    ))
 }
 
 /// `parent_from_child` as a `geometry_msgs/Transform`.

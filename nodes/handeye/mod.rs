@@ -1,0 +1,7 @@
+//! Hand-eye calibration of a recorded or live session: robot poses paired with target
+//! poses by stamp ([`pairing`]), every method of `vision::handeye` run on the pairs, and
+//! the result as one serializable report ([`report`]) that `stereocal handeye --json`
+//! prints and `handeye.yaml` holds.
+
+pub mod pairing;
+pub mod report;

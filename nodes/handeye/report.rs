@@ -1,0 +1,165 @@
+//! A hand-eye session's result as data: every method's transform, the one chosen, the
+//! samples left out and why, residuals and warnings. What `stereocal handeye --json`
+//! prints and `handeye.yaml` holds.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+use stereocal_vision::handeye::{
+    Calibration, HandEyeError, Method, RejectedSample, Sample, SampleResidual, Setup,
+    calibrate_screened,
+};
+
+use crate::pose::record::TransformRecord;
+
+/// A sample left out of the calibration, by the stamp of its target pose.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RejectedRecord {
+    /// Stamp of the target pose, seconds.
+    pub stamp: f64,
+    /// Why it was left out.
+    pub reason: String,
+}
+
+/// How far the samples kept are from the chosen calibration's prediction.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ResidualsRecord {
+    /// Median rotation residual, degrees.
+    pub rotation_deg_median: f64,
+    /// Largest rotation residual, degrees.
+    pub rotation_deg_max: f64,
+    /// Median translation residual, millimetres.
+    pub translation_mm_median: f64,
+    /// Largest translation residual, millimetres.
+    pub translation_mm_max: f64,
+}
+
+/// The frames the transforms are between.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FramesRecord {
+    /// The robot's base frame.
+    pub base: String,
+    /// The robot's tool frame.
+    pub tool: String,
+    /// The camera's optical frame.
+    pub camera: String,
+}
+
+/// A hand-eye session's result.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct HandEyeReport {
+    /// `eye-in-hand` or `eye-to-hand`.
+    pub setup: String,
+    /// The frames of the transforms.
+    pub frames: FramesRecord,
+    /// Samples the chosen calibration used.
+    pub samples: usize,
+    /// Samples left out, with the reason, in stamp order: unpaired with a robot pose, or
+    /// disagreeing with the rest.
+    pub samples_rejected: Vec<RejectedRecord>,
+    /// Every method that succeeded: `tool_from_camera` (eye-in-hand) or
+    /// `base_from_camera` (eye-to-hand), by method name.
+    pub results: BTreeMap<String, TransformRecord>,
+    /// The method whose result is recommended: the least median residual.
+    pub chosen: String,
+    /// The chosen calibration's target pose: `base_from_target` (eye-in-hand) or
+    /// `tool_from_target` (eye-to-hand).
+    pub target: TransformRecord,
+    /// The chosen calibration's residuals.
+    pub residuals: ResidualsRecord,
+    /// What weakens the result and what to add, and methods that failed.
+    pub warnings: Vec<String>,
+}
+
+/// Calibrates the `stamped` samples (target pose stamp in seconds, sample) with every
+/// method, each after leaving out the samples that disagree with the rest, and chooses
+/// the result with the least median residual. `unpaired` are target poses already left
+/// out (no robot pose at their stamp); they are reported with the rest.
+///
+/// Errors: the first method's error when every method fails (too few samples,
+/// degenerate motion...).
+pub fn solve(
+    setup: Setup,
+    frames: FramesRecord,
+    stamped: &[(f64, Sample)],
+    unpaired: Vec<RejectedRecord>,
+) -> Result<HandEyeReport, HandEyeError> {
+    let samples: Vec<Sample> = stamped.iter().map(|(_, s)| s.clone()).collect();
+    let mut solved: Vec<(Calibration, Vec<RejectedSample>)> = Vec::new();
+    let mut warnings = Vec::new();
+    let mut first_error = None;
+    for method in Method::ALL {
+        match calibrate_screened(setup, &samples, method) {
+            Ok(result) => solved.push(result),
+            Err(e) => {
+                warnings.push(format!("{}: {e}", method.name()));
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    let Some((chosen, rejected)) = solved
+        .iter()
+        .min_by(|a, b| score(&a.0.residuals).total_cmp(&score(&b.0.residuals)))
+    else {
+        return Err(first_error.unwrap_or(HandEyeError::TooFewSamples {
+            needed: stereocal_vision::handeye::MIN_SAMPLES,
+            got: samples.len(),
+        }));
+    };
+    let mut samples_rejected = unpaired;
+    samples_rejected.extend(rejected.iter().map(|r| RejectedRecord {
+        stamp: stamped[r.index].0,
+        reason: r.reason.clone(),
+    }));
+    samples_rejected.sort_by(|a, b| a.stamp.total_cmp(&b.stamp));
+    warnings.splice(0..0, chosen.warnings.iter().cloned());
+    Ok(HandEyeReport {
+        setup: setup.name().to_owned(),
+        frames,
+        samples: chosen.residuals.len(),
+        samples_rejected,
+        results: solved
+            .iter()
+            .map(|(c, _)| {
+                (
+                    c.method.name().to_owned(),
+                    TransformRecord::new(c.hand_eye.mount_from_camera()),
+                )
+            })
+            .collect(),
+        chosen: chosen.method.name().to_owned(),
+        target: TransformRecord::new(chosen.hand_eye.anchor_from_target()),
+        residuals: residuals_record(&chosen.residuals),
+        warnings,
+    })
+}
+
+/// The median over the samples of the larger of rotation over 0.1 degree and
+/// translation over 1 mm: one number to compare methods by.
+fn score(residuals: &[SampleResidual]) -> f64 {
+    median(
+        residuals
+            .iter()
+            .map(|r| (r.rotation_rad.to_degrees() / 0.1).max(r.translation_m / 1e-3))
+            .collect(),
+    )
+}
+
+fn residuals_record(residuals: &[SampleResidual]) -> ResidualsRecord {
+    let rotation: Vec<f64> = residuals
+        .iter()
+        .map(|r| r.rotation_rad.to_degrees())
+        .collect();
+    let translation: Vec<f64> = residuals.iter().map(|r| r.translation_m * 1e3).collect();
+    ResidualsRecord {
+        rotation_deg_median: median(rotation.clone()),
+        rotation_deg_max: rotation.iter().copied().fold(0.0, f64::max),
+        translation_mm_median: median(translation.clone()),
+        translation_mm_max: translation.iter().copied().fold(0.0, f64::max),
+    }
+}
+
+fn median(mut values: Vec<f64>) -> f64 {
+    values.sort_by(f64::total_cmp);
+    values.get(values.len() / 2).copied().unwrap_or(f64::NAN)
+}

@@ -1,0 +1,159 @@
+//! `stereocal handeye` on rendered sessions: `stereocal pose` finds the target in every
+//! image, and the command pairs those poses with the bag's robot poses and recovers the
+//! true hand-eye transform, eye-in-hand and eye-to-hand; bad arguments and too few
+//! samples are refused with a clear message.
+
+use indicatif::ProgressBar;
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
+use stereocal::cli::handeye::{HandEyeArgs, SetupArg, handeye_bag};
+use stereocal::cli::pose::{PoseArgs, pose_bag};
+use stereocal::cli::synth::{SceneArg, SynthArgs};
+use stereocal::handeye::report::HandEyeReport;
+use stereocal::pose::record::TransformRecord;
+
+use crate::common;
+use crate::pose::pose_error;
+
+fn isometry(record: &TransformRecord) -> Isometry3<f64> {
+    let r = Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(&record.rotation));
+    let [x, y, z] = record.translation;
+    Isometry3::from_parts(
+        Translation3::new(x, y, z),
+        UnitQuaternion::from_rotation_matrix(&r),
+    )
+}
+
+/// A rendered session of `frames` frames run through `stereocal pose`: the directory,
+/// the truth, and the pose bag.
+fn posed_session(
+    scene: SceneArg,
+    seed: u64,
+    frames: usize,
+) -> (
+    tempfile::TempDir,
+    stereocal_vision::synth::GroundTruth,
+    std::path::PathBuf,
+) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let args = SynthArgs::new(scene, dir.path().join("synth"), seed, frames);
+    let truth = common::synthesize_session(&args, None);
+    let posed = dir.path().join("posed");
+    let board = &truth.board;
+    let pose_args = PoseArgs::chessboard(
+        dir.path().join("synth/bag"),
+        posed.clone(),
+        board.cols,
+        board.rows,
+        board.square_size,
+    );
+    pose_bag(&pose_args, &ProgressBar::hidden()).expect("stereocal pose");
+    (dir, truth, posed)
+}
+
+fn args(bag: std::path::PathBuf, setup: SetupArg, out: std::path::PathBuf) -> HandEyeArgs {
+    HandEyeArgs {
+        bag,
+        setup,
+        target_pose_topic: "/camera/target_pose".to_owned(),
+        robot_pose_topic: "/robot/tool_pose".to_owned(),
+        tool_frame: "tool".to_owned(),
+        max_time_difference: 0.02,
+        out,
+        json: false,
+    }
+}
+
+#[test]
+fn recovers_the_true_transform_in_both_setups() {
+    for (scene, setup, seed) in [
+        (SceneArg::HandeyeInHand, SetupArg::EyeInHand, 81),
+        (SceneArg::HandeyeToHand, SetupArg::EyeToHand, 82),
+    ] {
+        let (dir, truth, posed) = posed_session(scene, seed, 12);
+        let out = dir.path().join("handeye");
+        let report = handeye_bag(&args(posed, setup, out.clone())).unwrap();
+        let (expected, expected_target) = match setup {
+            SetupArg::EyeInHand => (
+                truth
+                    .extrinsics
+                    .tool_from_camera
+                    .as_ref()
+                    .unwrap()
+                    .isometry(),
+                truth
+                    .extrinsics
+                    .base_from_target
+                    .as_ref()
+                    .unwrap()
+                    .isometry(),
+            ),
+            SetupArg::EyeToHand => (
+                truth
+                    .extrinsics
+                    .base_from_camera
+                    .as_ref()
+                    .unwrap()
+                    .isometry(),
+                truth
+                    .extrinsics
+                    .tool_from_target
+                    .as_ref()
+                    .unwrap()
+                    .isometry(),
+            ),
+        };
+        assert_eq!(report.results.len(), 7, "{setup:?}: {:?}", report.warnings);
+        for (method, result) in &report.results {
+            let (deg, mm) = pose_error(&isometry(result), &expected);
+            println!("{setup:?} {method}: {deg:.4} deg, {mm:.3} mm");
+            assert!(
+                deg < 0.02 && mm < 0.2,
+                "{setup:?} {method}: {deg} deg, {mm} mm"
+            );
+        }
+        let (deg, mm) = pose_error(&isometry(&report.target), &expected_target);
+        assert!(
+            deg < 0.02 && mm < 0.2,
+            "{setup:?} target: {deg} deg, {mm} mm"
+        );
+        assert_eq!(report.samples, 12);
+        assert!(
+            report.samples_rejected.is_empty(),
+            "{:?}",
+            report.samples_rejected
+        );
+        assert_eq!(report.frames.base, "base");
+        assert_eq!(report.frames.camera, "camera_optical_frame");
+        let written: HandEyeReport =
+            serde_yaml::from_str(&std::fs::read_to_string(out.join("handeye.yaml")).unwrap())
+                .unwrap();
+        assert_eq!(written, report);
+    }
+}
+
+#[test]
+fn refuses_bad_arguments_and_too_few_samples() {
+    let (dir, _, posed) = posed_session(SceneArg::HandeyeInHand, 83, 2);
+    let out = dir.path().join("handeye");
+    let error = handeye_bag(&args(posed.clone(), SetupArg::EyeInHand, out.clone())).unwrap_err();
+    assert!(
+        format!("{error:#}").contains("too few samples"),
+        "{error:#}"
+    );
+    assert!(!out.join("handeye.yaml").exists());
+
+    let mut wrong_topic = args(posed.clone(), SetupArg::EyeInHand, out.clone());
+    wrong_topic.robot_pose_topic = "/robot/pose".to_owned();
+    let error = handeye_bag(&wrong_topic).unwrap_err().to_string();
+    assert!(error.contains("no topic /robot/pose"), "{error}");
+
+    let mut wrong_type = args(posed.clone(), SetupArg::EyeInHand, out.clone());
+    wrong_type.target_pose_topic = "/camera/camera_info".to_owned();
+    let error = handeye_bag(&wrong_type).unwrap_err().to_string();
+    assert!(error.contains("is a sensor_msgs/msg/CameraInfo"), "{error}");
+
+    let mut negative = args(posed, SetupArg::EyeInHand, out);
+    negative.max_time_difference = -1.0;
+    let error = handeye_bag(&negative).unwrap_err().to_string();
+    assert!(error.contains("--max-time-difference"), "{error}");
+}
