@@ -1,25 +1,34 @@
-//! `stereocal handeye`: hand-eye calibration of a recorded session. Target poses
-//! (`camera_from_target`, geometry_msgs/PoseStamped, as `stereocal pose` or `pose_node`
-//! writes them) are paired by stamp with the robot's poses (`base_from_tool`,
-//! PoseStamped), interpolated at each target pose's stamp; every method of
-//! `vision::handeye` solves the pairs after leaving out those that disagree, and the
-//! result with the least median residual is chosen. Writes `DIR/handeye.yaml`
-//! atomically; with `--json`, prints the same report on stdout.
+//! `stereocal handeye`: hand-eye calibration of a recorded session. The target's poses
+//! come from the images (found as `stereocal pose` finds them) or from a topic of poses
+//! already measured (`camera_from_target`, geometry_msgs/PoseStamped); each is paired by
+//! stamp with the robot's pose (`base_from_tool`, PoseStamped), interpolated at that
+//! stamp. Every method of `vision::handeye` solves the pairs after leaving out those
+//! that disagree; the result with the least median residual is chosen, and with images
+//! it starts the joint refinement on the target's pixels, which is then chosen. Writes
+//! `DIR/handeye.yaml` atomically; with `--json`, prints the same report on stdout.
 
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
+use indicatif::ProgressBar;
+use nalgebra::Isometry3;
 use stereocal_msgs::RosMessage;
 use stereocal_msgs::atomic_file;
 use stereocal_msgs::cdr;
 use stereocal_msgs::geometry_msgs::PoseStamped;
-use stereocal_rosbag::{BagReader, TopicFilter};
-use stereocal_vision::handeye::{Sample, Setup};
+use stereocal_rosbag::{BagMessage, BagReader, TopicFilter};
+use stereocal_vision::board::PatternArgs;
+use stereocal_vision::camera::CameraModel;
+use stereocal_vision::handeye::{RefineOptions, Sample, Setup, TargetObservation, refine};
+use stereocal_vision::pnp::PoseOptions;
 
+use super::calibrate::CharucoArgs;
+use super::pose::FrameInput;
 use crate::convert::isometry_from_pose_msg;
 use crate::handeye::pairing::RobotTrack;
-use crate::handeye::report::{FramesRecord, HandEyeReport, RejectedRecord, solve};
+use crate::handeye::report::{FramesRecord, HandEyeReport, RejectedRecord, solve, with_refinement};
 use crate::pose::record::seconds;
+use crate::pose::stage::PoseStage;
 
 /// Where the camera is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -48,10 +57,31 @@ pub struct HandEyeArgs {
     /// Where the camera is.
     #[arg(long, value_enum)]
     pub setup: SetupArg,
-    /// Topic of the target's poses in the camera frame (geometry_msgs/PoseStamped), e.g.
-    /// what `stereocal pose` adds as `<ns>/target_pose`.
-    #[arg(long = "target-pose-topic")]
-    pub target_pose_topic: String,
+    /// Topic of the target's poses already measured in the camera frame
+    /// (geometry_msgs/PoseStamped), e.g. what `stereocal pose` adds as
+    /// `<ns>/target_pose`. Instead of the images.
+    #[arg(long = "target-pose-topic", conflicts_with = "image_topic")]
+    pub target_pose_topic: Option<String>,
+    /// Image topic to find the target in; its camera_info is `<ns>/camera_info` or
+    /// `--camera-info`. The target's pixels then also drive the joint refinement.
+    #[arg(long = "image-topic")]
+    pub image_topic: Option<String>,
+    /// Calibration from a camera_calibration_parsers YAML or INI file, used instead of
+    /// the bag's `<ns>/camera_info`.
+    #[arg(long = "camera-info")]
+    pub camera_info: Option<PathBuf>,
+    /// Target kind, as ROS camera_calibration: chessboard or charuco.
+    #[arg(long, default_value = "chessboard")]
+    pub pattern: String,
+    /// Inner corners of the chessboard, or squares of the ChArUco board, COLSxROWS.
+    #[arg(long)]
+    pub size: Option<String>,
+    /// Side of one square, metres.
+    #[arg(long)]
+    pub square: Option<String>,
+    /// The markers of a ChArUco board.
+    #[command(flatten)]
+    pub charuco: CharucoArgs,
     /// Topic of the robot's tool poses in its base frame (geometry_msgs/PoseStamped).
     #[arg(long = "robot-pose-topic")]
     pub robot_pose_topic: String,
@@ -62,12 +92,71 @@ pub struct HandEyeArgs {
     /// stamp, seconds.
     #[arg(long = "max-time-difference", default_value_t = 0.02)]
     pub max_time_difference: f64,
+    /// Standard deviation of a detected corner, pixels (the joint refinement's weight).
+    #[arg(long = "pixel-noise", default_value_t = 0.2)]
+    pub pixel_noise: f64,
+    /// Standard deviation of the robot's reported rotation, degrees.
+    #[arg(long = "robot-rotation-noise", default_value_t = 0.05)]
+    pub robot_rotation_noise: f64,
+    /// Standard deviation of the robot's reported position, millimetres.
+    #[arg(long = "robot-translation-noise", default_value_t = 0.3)]
+    pub robot_translation_noise: f64,
     /// Output directory: handeye.yaml is written there.
     #[arg(long)]
     pub out: PathBuf,
     /// Print the report as one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+impl HandEyeArgs {
+    /// The arguments for a session of `setup` in `bag` whose target poses are on
+    /// `target_pose_topic` and robot poses on `robot_pose_topic`, written to `out`, with
+    /// every other option at its default.
+    pub fn from_poses(
+        bag: PathBuf,
+        setup: SetupArg,
+        target_pose_topic: &str,
+        robot_pose_topic: &str,
+        out: PathBuf,
+    ) -> Self {
+        Self {
+            bag,
+            setup,
+            target_pose_topic: Some(target_pose_topic.to_owned()),
+            image_topic: None,
+            camera_info: None,
+            pattern: "chessboard".to_owned(),
+            size: None,
+            square: None,
+            charuco: CharucoArgs::default(),
+            robot_pose_topic: robot_pose_topic.to_owned(),
+            tool_frame: "tool".to_owned(),
+            max_time_difference: 0.02,
+            pixel_noise: 0.2,
+            robot_rotation_noise: 0.05,
+            robot_translation_noise: 0.3,
+            out,
+            json: false,
+        }
+    }
+
+    fn refine_options(&self) -> anyhow::Result<RefineOptions> {
+        for (option, value) in [
+            ("--pixel-noise", self.pixel_noise),
+            ("--robot-rotation-noise", self.robot_rotation_noise),
+            ("--robot-translation-noise", self.robot_translation_noise),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                bail!("{option} {value}: expected a positive number");
+            }
+        }
+        Ok(RefineOptions {
+            pixel_noise_px: self.pixel_noise,
+            robot_rotation_noise_rad: self.robot_rotation_noise.to_radians(),
+            robot_translation_noise_m: self.robot_translation_noise * 1e-3,
+        })
+    }
 }
 
 /// Runs `stereocal handeye`.
@@ -84,6 +173,21 @@ pub fn run(args: &HandEyeArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// A target pose read or found, with the pixels it came from when found in an image.
+struct TargetPose {
+    stamp: f64,
+    camera_from_target: Isometry3<f64>,
+    observation: Option<(TargetObservation, CameraModel)>,
+}
+
+/// What the bag holds for the calibration.
+struct Gathered {
+    targets: Vec<TargetPose>,
+    robot: Vec<(f64, Isometry3<f64>)>,
+    unpaired: Vec<RejectedRecord>,
+    frames: FramesRecord,
+}
+
 /// Calibrates the session in `args.bag` and writes `args.out/handeye.yaml`.
 pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
     if !(args.max_time_difference.is_finite() && args.max_time_difference >= 0.0) {
@@ -92,99 +196,80 @@ pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
             args.max_time_difference
         );
     }
+    let refine_options = args.refine_options()?;
     let reader = BagReader::open(&args.bag)
         .with_context(|| format!("opening the bag {}", args.bag.display()))?;
-    for (option, topic) in [
-        ("--target-pose-topic", &args.target_pose_topic),
-        ("--robot-pose-topic", &args.robot_pose_topic),
-    ] {
-        match reader.topic(topic) {
-            Some(t) if t.type_name == PoseStamped::TYPE_NAME => {}
-            Some(t) => bail!(
-                "{option} {topic} is a {}, not a {}",
-                t.type_name,
-                PoseStamped::TYPE_NAME
-            ),
-            None => bail!(
-                "{option}: the bag has no topic {topic} (PoseStamped topics: {})",
-                reader.topics_of_type(PoseStamped::TYPE_NAME).join(", ")
-            ),
+    check_pose_topic(&reader, "--robot-pose-topic", &args.robot_pose_topic)?;
+    let mut gathered = match (&args.target_pose_topic, &args.image_topic) {
+        (Some(topic), None) => {
+            check_pose_topic(&reader, "--target-pose-topic", topic)?;
+            read_poses(&reader, args, topic)?
         }
-    }
-    let mut robot = Vec::new();
-    let mut targets = Vec::new();
-    let mut unpaired = Vec::new();
-    let mut frames = FramesRecord {
-        base: String::new(),
-        tool: args.tool_frame.clone(),
-        camera: String::new(),
+        (None, image_topic) => find_poses(&reader, args, image_topic.as_deref())?,
+        (Some(_), Some(_)) => bail!("give --target-pose-topic or --image-topic, not both"),
     };
-    let filter = TopicFilter::only([
-        args.target_pose_topic.as_str(),
-        args.robot_pose_topic.as_str(),
-    ]);
-    for message in reader.messages(&filter) {
-        let message = message.context("reading the bag")?;
-        let is_robot = *message.topic == args.robot_pose_topic;
-        let pose: PoseStamped = match cdr::from_bytes(&message.data) {
-            Ok(pose) => pose,
-            Err(e) => {
-                eprintln!(
-                    "skipped an undecodable {} message at log time {} ns: {e}",
-                    message.topic, message.log_time_ns
-                );
-                continue;
-            }
-        };
-        let stamp = seconds(&pose.header.stamp);
-        let isometry = isometry_from_pose_msg(&pose.pose);
-        if is_robot {
-            match isometry {
-                Ok(base_from_tool) => {
-                    robot.push((stamp, base_from_tool));
-                    if frames.base.is_empty() {
-                        frames.base = pose.header.frame_id;
-                    }
-                }
-                Err(e) => eprintln!("skipped the robot pose stamped {stamp:.6} s: {e}"),
-            }
-        } else {
-            match isometry {
-                Ok(camera_from_target) => {
-                    targets.push((stamp, camera_from_target));
-                    if frames.camera.is_empty() {
-                        frames.camera = pose.header.frame_id;
-                    }
-                }
-                Err(e) => unpaired.push(RejectedRecord {
-                    stamp,
-                    reason: format!("target pose: {e}"),
-                }),
-            }
-        }
+    if gathered.targets.is_empty() {
+        bail!(
+            "no target pose in {} ({} frames rejected)",
+            args.bag.display(),
+            gathered.unpaired.len()
+        );
     }
-    if targets.is_empty() {
-        bail!("no target pose on {}", args.target_pose_topic);
-    }
-    if robot.is_empty() {
+    if gathered.robot.is_empty() {
         bail!("no robot pose on {}", args.robot_pose_topic);
     }
-    let track = RobotTrack::new(robot);
+    let track = RobotTrack::new(std::mem::take(&mut gathered.robot));
     let mut stamped = Vec::new();
-    for (stamp, camera_from_target) in targets {
-        match track.at(stamp, args.max_time_difference) {
-            Ok(base_from_tool) => stamped.push((
-                stamp,
-                Sample {
-                    base_from_tool,
-                    camera_from_target,
-                },
-            )),
-            Err(reason) => unpaired.push(RejectedRecord { stamp, reason }),
+    let mut observations = Vec::new();
+    for target in gathered.targets {
+        match track.at(target.stamp, args.max_time_difference) {
+            Ok(base_from_tool) => {
+                stamped.push((
+                    target.stamp,
+                    Sample {
+                        base_from_tool,
+                        camera_from_target: target.camera_from_target,
+                    },
+                ));
+                observations.push(target.observation);
+            }
+            Err(reason) => gathered.unpaired.push(RejectedRecord {
+                stamp: target.stamp,
+                reason,
+            }),
         }
     }
-    let report = solve(args.setup.into(), frames, &stamped, unpaired)
-        .with_context(|| format!("hand-eye calibration of {}", args.bag.display()))?;
+    let solved = solve(
+        args.setup.into(),
+        gathered.frames,
+        &stamped,
+        gathered.unpaired,
+    )
+    .with_context(|| format!("hand-eye calibration of {}", args.bag.display()))?;
+    let mut report = solved.report;
+    let kept: Vec<Sample> = solved.kept.iter().map(|&i| stamped[i].1.clone()).collect();
+    let kept_observations: Option<Vec<(TargetObservation, CameraModel)>> = solved
+        .kept
+        .iter()
+        .map(|&i| observations[i].clone())
+        .collect();
+    if let Some(kept_observations) = kept_observations
+        && let Some((_, camera)) = kept_observations.first()
+    {
+        let camera = camera.clone();
+        let observations: Vec<TargetObservation> =
+            kept_observations.into_iter().map(|(o, _)| o).collect();
+        match refine(
+            &camera,
+            &kept,
+            &observations,
+            &solved.hand_eye,
+            &refine_options,
+        ) {
+            Ok(refined) => report = with_refinement(report, &kept, &refined),
+            Err(e) => report.warnings.push(format!("refined: {e}")),
+        }
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let path = args.out.join("handeye.yaml");
@@ -192,6 +277,173 @@ pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
     atomic_file::write(&path, text.as_bytes())
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(report)
+}
+
+/// Refuses a topic the bag lacks or that is not of PoseStamped.
+fn check_pose_topic(reader: &BagReader, option: &str, topic: &str) -> anyhow::Result<()> {
+    match reader.topic(topic) {
+        Some(t) if t.type_name == PoseStamped::TYPE_NAME => Ok(()),
+        Some(t) => bail!(
+            "{option} {topic} is a {}, not a {}",
+            t.type_name,
+            PoseStamped::TYPE_NAME
+        ),
+        None => bail!(
+            "{option}: the bag has no topic {topic} (PoseStamped topics: {})",
+            reader.topics_of_type(PoseStamped::TYPE_NAME).join(", ")
+        ),
+    }
+}
+
+/// A PoseStamped message's stamp (seconds), pose and frame; `None`, said on stderr,
+/// when it cannot be decoded or is not a pose.
+fn pose_of(message: &BagMessage) -> Option<(f64, Isometry3<f64>, String)> {
+    let pose: PoseStamped = match cdr::from_bytes(&message.data) {
+        Ok(pose) => pose,
+        Err(e) => {
+            eprintln!(
+                "skipped an undecodable {} message at log time {} ns: {e}",
+                message.topic, message.log_time_ns
+            );
+            return None;
+        }
+    };
+    let stamp = seconds(&pose.header.stamp);
+    match isometry_from_pose_msg(&pose.pose) {
+        Ok(isometry) => Some((stamp, isometry, pose.header.frame_id)),
+        Err(e) => {
+            eprintln!(
+                "skipped the {} message stamped {stamp:.6} s: {e}",
+                message.topic
+            );
+            None
+        }
+    }
+}
+
+fn empty_gathered(args: &HandEyeArgs) -> Gathered {
+    Gathered {
+        targets: Vec::new(),
+        robot: Vec::new(),
+        unpaired: Vec::new(),
+        frames: FramesRecord {
+            base: String::new(),
+            tool: args.tool_frame.clone(),
+            camera: String::new(),
+        },
+    }
+}
+
+/// Keeps a robot pose message.
+fn gather_robot(gathered: &mut Gathered, message: &BagMessage) {
+    if let Some((stamp, base_from_tool, frame)) = pose_of(message) {
+        gathered.robot.push((stamp, base_from_tool));
+        if gathered.frames.base.is_empty() {
+            gathered.frames.base = frame;
+        }
+    }
+}
+
+/// The target poses of a topic of poses already measured, and the robot poses.
+fn read_poses(reader: &BagReader, args: &HandEyeArgs, topic: &str) -> anyhow::Result<Gathered> {
+    let mut gathered = empty_gathered(args);
+    let filter = TopicFilter::only([topic, args.robot_pose_topic.as_str()]);
+    for message in reader.messages(&filter) {
+        let message = message.context("reading the bag")?;
+        if *message.topic == args.robot_pose_topic {
+            gather_robot(&mut gathered, &message);
+        } else if let Some((stamp, camera_from_target, frame)) = pose_of(&message) {
+            targets_push(&mut gathered, stamp, camera_from_target, None, frame);
+        }
+    }
+    Ok(gathered)
+}
+
+fn targets_push(
+    gathered: &mut Gathered,
+    stamp: f64,
+    camera_from_target: Isometry3<f64>,
+    observation: Option<(TargetObservation, CameraModel)>,
+    frame: String,
+) {
+    gathered.targets.push(TargetPose {
+        stamp,
+        camera_from_target,
+        observation,
+    });
+    if gathered.frames.camera.is_empty() {
+        gathered.frames.camera = frame;
+    }
+}
+
+/// The target poses found in the images of `image_topic` (default: the bag's only one)
+/// with their pixels, and the robot poses, in one pass over the bag.
+fn find_poses(
+    reader: &BagReader,
+    args: &HandEyeArgs,
+    image_topic: Option<&str>,
+) -> anyhow::Result<Gathered> {
+    let (Some(size), Some(square)) = (&args.size, &args.square) else {
+        bail!("give --size and --square of the target (or --target-pose-topic)");
+    };
+    let target = PatternArgs {
+        pattern: Some(args.pattern.clone()),
+        size: Some(size.clone()),
+        square: Some(square.clone()),
+        marker_size: args.charuco.marker_size.clone(),
+        aruco_dict: args.charuco.aruco_dict.clone(),
+    }
+    .target()?;
+    let stage = PoseStage::new(target, PoseOptions::default(), false)?;
+    let input = FrameInput::open(reader, image_topic, args.camera_info.as_deref())?;
+    let gathered = std::cell::RefCell::new(empty_gathered(args));
+    let damage = input.walk(
+        reader,
+        &stage,
+        &ProgressBar::hidden(),
+        |message| {
+            if *message.topic == args.robot_pose_topic {
+                gather_robot(&mut gathered.borrow_mut(), message);
+            }
+            Ok(())
+        },
+        |frame| {
+            let stamp = seconds(&frame.header.stamp);
+            let mut gathered = gathered.borrow_mut();
+            match frame.outcome {
+                Ok(pose) => {
+                    let observation =
+                        pose.detection
+                            .object_points(stage.target())
+                            .map(|target_points| {
+                                (
+                                    TargetObservation {
+                                        target_points,
+                                        pixels: pose.detection.corners.clone(),
+                                    },
+                                    pose.camera.clone(),
+                                )
+                            });
+                    targets_push(
+                        &mut gathered,
+                        stamp,
+                        pose.estimate.camera_from_target,
+                        observation,
+                        frame.header.frame_id,
+                    );
+                }
+                Err(rejection) => gathered.unpaired.push(RejectedRecord {
+                    stamp,
+                    reason: rejection.to_string(),
+                }),
+            }
+            Ok(())
+        },
+    )?;
+    if let Some(damage) = damage {
+        eprintln!("the bag is damaged; reading stopped early: {damage}");
+    }
+    Ok(gathered.into_inner())
 }
 
 fn print_human(report: &HandEyeReport) {

@@ -8,7 +8,7 @@
 //! frames are solved in small batches on every core, so memory stays bounded.
 
 use std::collections::{BTreeMap, VecDeque};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
@@ -22,7 +22,7 @@ use stereocal_msgs::geometry_msgs::{PoseStamped, TransformStamped};
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_msgs::tf2_msgs::TFMessage;
-use stereocal_rosbag::{BagReader, BagWriter, OfferedQos, TopicFilter, TopicId, WriterOptions};
+use stereocal_rosbag::{BagMessage, BagReader, BagWriter, OfferedQos, TopicFilter, WriterOptions};
 use stereocal_vision::board::PatternArgs;
 use stereocal_vision::pnp::PoseOptions;
 
@@ -204,14 +204,6 @@ struct Ready {
     info: Option<CameraInfo>,
 }
 
-/// Where the output goes.
-struct Output {
-    writer: BagWriter,
-    pose_topic: TopicId,
-    tf_topic: TopicId,
-    target_frame: String,
-}
-
 /// Estimates the target's pose in every image of `args.topic` and writes the output
 /// bag (atomically: nothing appears at `args.out` unless the run succeeds). `progress`
 /// counts images; pass [`ProgressBar::hidden`] for none.
@@ -229,24 +221,9 @@ pub fn pose_bag(args: &PoseArgs, progress: &ProgressBar) -> anyhow::Result<PoseR
     let stage = PoseStage::new(target, options, args.image_is_rectified)?;
     let reader = BagReader::open(&args.bag)
         .with_context(|| format!("opening the bag {}", args.bag.display()))?;
-    let topic = image_topic(&reader, args.topic.as_deref())?;
+    let input = FrameInput::open(&reader, args.topic.as_deref(), args.camera_info.as_deref())?;
+    let topic = input.topic.clone();
     let ns = topic.rsplit_once('/').map_or("", |(ns, _)| ns).to_owned();
-    let info_topic = format!("{ns}/camera_info");
-    let fixed_info = match &args.camera_info {
-        Some(file) => Some(
-            CameraInfoFile::read(file)
-                .with_context(|| format!("--camera-info {}", file.display()))?
-                .info,
-        ),
-        None => None,
-    };
-    let camera_info_source = match &args.camera_info {
-        Some(file) => file.display().to_string(),
-        None => match reader.topic(&info_topic) {
-            Some(t) if t.type_name == CameraInfo::TYPE_NAME => info_topic.clone(),
-            _ => bail!("the bag has no {info_topic} beside {topic}: give --camera-info FILE"),
-        },
-    };
     let pose_topic_name = format!("{ns}/target_pose");
     if reader.topic(&pose_topic_name).is_some() {
         bail!("the input bag already has {pose_topic_name}");
@@ -278,75 +255,61 @@ pub fn pose_bag(args: &PoseArgs, progress: &ProgressBar) -> anyhow::Result<PoseR
         ),
         _ => writer.add_message_topic::<TFMessage>("/tf", &OfferedQos::default())?,
     };
-    let mut output = Output {
-        writer,
-        pose_topic,
-        tf_topic,
-        target_frame: args.target_frame.clone(),
-    };
-    progress.set_length(reader.topics_message_count([topic.as_str()]));
-
-    let mut pending: VecDeque<Pending> = VecDeque::new();
-    let mut infos: VecDeque<CameraInfo> = VecDeque::new();
-    let mut batch: Vec<Ready> = Vec::new();
+    let writer = std::cell::RefCell::new(writer);
     let mut frames = Vec::new();
-    let mut damage = None;
-    for message in reader.messages(&TopicFilter::All) {
-        let message = match message {
-            Ok(message) => message,
-            Err(e) => {
-                damage = Some(e.to_string());
-                break;
+    let damage = input.walk(
+        &reader,
+        &stage,
+        progress,
+        |message| {
+            if let Some(&id) = copy_ids.get(&*message.topic) {
+                writer.borrow_mut().write_timed(
+                    id,
+                    message.log_time_ns,
+                    message.publish_time_ns,
+                    &message.data,
+                )?;
             }
-        };
-        if let Some(&id) = copy_ids.get(&*message.topic) {
-            output.writer.write_timed(
-                id,
-                message.log_time_ns,
-                message.publish_time_ns,
-                &message.data,
+            Ok(())
+        },
+        |frame| {
+            frames.push(FrameRecord::new(&frame.header.stamp, &frame.outcome));
+            let Ok(pose) = &frame.outcome else {
+                return Ok(());
+            };
+            let camera_from_target = &pose.estimate.camera_from_target;
+            let mut writer = writer.borrow_mut();
+            writer.write_message(
+                pose_topic,
+                frame.log_time_ns,
+                &PoseStamped {
+                    header: frame.header.clone(),
+                    pose: pose_msg(camera_from_target),
+                },
             )?;
-        }
-        if *message.topic == topic {
-            pending.push_back(Pending {
-                log_time_ns: message.log_time_ns,
-                image: cdr::from_bytes::<ImageMsg>(&message.data).map_err(|e| e.to_string()),
-            });
-        } else if fixed_info.is_none() && *message.topic == info_topic {
-            match cdr::from_bytes::<CameraInfo>(&message.data) {
-                Ok(info) => {
-                    if infos.len() == RECENT_INFOS {
-                        infos.pop_front();
-                    }
-                    infos.push_back(info);
-                }
-                // Its images are then rejected for want of a camera_info: say why.
-                Err(e) => progress.suspend(|| {
-                    eprintln!(
-                        "skipped an undecodable {info_topic} message at log time {} ns: {e}",
-                        message.log_time_ns
-                    );
-                }),
-            }
-        } else {
-            continue;
-        }
-        pair_ready(&mut pending, &infos, fixed_info.as_ref(), false, &mut batch);
-        if batch.len() >= BATCH {
-            solve_batch(&stage, &mut batch, &mut output, &mut frames, progress)?;
-        }
-    }
-    pair_ready(&mut pending, &infos, fixed_info.as_ref(), true, &mut batch);
-    solve_batch(&stage, &mut batch, &mut output, &mut frames, progress)?;
-    let written = output
-        .writer
+            writer.write_message(
+                tf_topic,
+                frame.log_time_ns,
+                &TFMessage {
+                    transforms: vec![TransformStamped {
+                        header: frame.header,
+                        child_frame_id: args.target_frame.clone(),
+                        transform: transform_msg(camera_from_target),
+                    }],
+                },
+            )?;
+            Ok(())
+        },
+    )?;
+    let written = writer
+        .into_inner()
         .finish()
         .with_context(|| format!("finishing {}", args.out.display()))?;
     frames.sort_by(|a: &FrameRecord, b| a.stamp().total_cmp(&b.stamp()));
     Ok(PoseReport {
         frames,
         topic,
-        camera_info_source,
+        camera_info_source: input.camera_info_source,
         output: written,
         damage,
         elapsed: started.elapsed(),
@@ -378,6 +341,124 @@ fn pose_options(args: &PoseArgs) -> anyhow::Result<PoseOptions> {
         pixel_noise_px: args.pixel_noise,
         ..PoseOptions::default()
     })
+}
+
+/// One image's outcome, in bag order.
+pub struct SolvedFrame {
+    /// When the image was logged, nanoseconds.
+    pub log_time_ns: u64,
+    /// The image's header.
+    pub header: Header,
+    /// Its pose, or why it has none.
+    pub outcome: Result<FramePose, PoseRejection>,
+}
+
+/// Where a bag's images and their camera_infos come from.
+pub struct FrameInput {
+    /// The image topic.
+    pub topic: String,
+    /// The camera_info topic beside it, `<ns>/camera_info`.
+    info_topic: String,
+    /// The camera_info from a file, used for every image instead of the bag's.
+    fixed_info: Option<CameraInfo>,
+    /// Where the camera_info comes from: the topic or the file.
+    pub camera_info_source: String,
+}
+
+impl FrameInput {
+    /// The image topic `asked` (default: the bag's only image topic) and its
+    /// camera_info: from `camera_info_file` when given, else the bag's
+    /// `<ns>/camera_info`, which must then exist.
+    pub fn open(
+        reader: &BagReader,
+        asked: Option<&str>,
+        camera_info_file: Option<&Path>,
+    ) -> anyhow::Result<Self> {
+        let topic = image_topic(reader, asked)?;
+        let ns = topic.rsplit_once('/').map_or("", |(ns, _)| ns).to_owned();
+        let info_topic = format!("{ns}/camera_info");
+        let (fixed_info, camera_info_source) = match camera_info_file {
+            Some(file) => (
+                Some(
+                    CameraInfoFile::read(file)
+                        .with_context(|| format!("--camera-info {}", file.display()))?
+                        .info,
+                ),
+                file.display().to_string(),
+            ),
+            None => match reader.topic(&info_topic) {
+                Some(t) if t.type_name == CameraInfo::TYPE_NAME => (None, info_topic.clone()),
+                _ => bail!("the bag has no {info_topic} beside {topic}: give --camera-info FILE"),
+            },
+        };
+        Ok(Self {
+            topic,
+            info_topic,
+            fixed_info,
+            camera_info_source,
+        })
+    }
+
+    /// Reads the whole bag once: hands every message to `copy` as it is read, pairs each
+    /// image with the camera_info of its stamp (or the file's), solves the images with
+    /// `stage` in parallel batches, and hands every solved frame to `sink` in bag order.
+    /// Returns the damage that ended reading early, if any. `progress` counts images.
+    pub fn walk(
+        &self,
+        reader: &BagReader,
+        stage: &PoseStage,
+        progress: &ProgressBar,
+        mut copy: impl FnMut(&BagMessage) -> anyhow::Result<()>,
+        mut sink: impl FnMut(SolvedFrame) -> anyhow::Result<()>,
+    ) -> anyhow::Result<Option<String>> {
+        progress.set_length(reader.topics_message_count([self.topic.as_str()]));
+        let mut pending: VecDeque<Pending> = VecDeque::new();
+        let mut infos: VecDeque<CameraInfo> = VecDeque::new();
+        let mut batch: Vec<Ready> = Vec::new();
+        let mut damage = None;
+        let fixed_info = self.fixed_info.as_ref();
+        for message in reader.messages(&TopicFilter::All) {
+            let message = match message {
+                Ok(message) => message,
+                Err(e) => {
+                    damage = Some(e.to_string());
+                    break;
+                }
+            };
+            copy(&message)?;
+            if *message.topic == self.topic {
+                pending.push_back(Pending {
+                    log_time_ns: message.log_time_ns,
+                    image: cdr::from_bytes::<ImageMsg>(&message.data).map_err(|e| e.to_string()),
+                });
+            } else if fixed_info.is_none() && *message.topic == self.info_topic {
+                match cdr::from_bytes::<CameraInfo>(&message.data) {
+                    Ok(info) => {
+                        if infos.len() == RECENT_INFOS {
+                            infos.pop_front();
+                        }
+                        infos.push_back(info);
+                    }
+                    // Its images are then rejected for want of a camera_info: say why.
+                    Err(e) => progress.suspend(|| {
+                        eprintln!(
+                            "skipped an undecodable {} message at log time {} ns: {e}",
+                            self.info_topic, message.log_time_ns
+                        );
+                    }),
+                }
+            } else {
+                continue;
+            }
+            pair_ready(&mut pending, &infos, fixed_info, false, &mut batch);
+            if batch.len() >= BATCH {
+                solve_batch(stage, &mut batch, progress, &mut sink)?;
+            }
+        }
+        pair_ready(&mut pending, &infos, fixed_info, true, &mut batch);
+        solve_batch(stage, &mut batch, progress, &mut sink)?;
+        Ok(damage)
+    }
 }
 
 /// The image topic: the one asked for, or the bag's only one.
@@ -435,13 +516,12 @@ fn pair_ready(
     }
 }
 
-/// Solves the frames of `batch` in parallel and writes their poses in order.
+/// Solves the frames of `batch` in parallel and hands them to `sink` in order.
 fn solve_batch(
     stage: &PoseStage,
     batch: &mut Vec<Ready>,
-    output: &mut Output,
-    frames: &mut Vec<FrameRecord>,
     progress: &ProgressBar,
+    sink: &mut impl FnMut(SolvedFrame) -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
     let solved: Vec<Option<(Header, Result<FramePose, PoseRejection>)>> = batch
         .par_iter()
@@ -469,30 +549,11 @@ fn solve_batch(
             }
             (None, Ok(_)) => continue,
         };
-        frames.push(FrameRecord::new(&header.stamp, &outcome));
-        let Ok(pose) = outcome else {
-            continue;
-        };
-        let camera_from_target = &pose.estimate.camera_from_target;
-        output.writer.write_message(
-            output.pose_topic,
-            frame.log_time_ns,
-            &PoseStamped {
-                header: header.clone(),
-                pose: pose_msg(camera_from_target),
-            },
-        )?;
-        output.writer.write_message(
-            output.tf_topic,
-            frame.log_time_ns,
-            &TFMessage {
-                transforms: vec![TransformStamped {
-                    header,
-                    child_frame_id: output.target_frame.clone(),
-                    transform: transform_msg(camera_from_target),
-                }],
-            },
-        )?;
+        sink(SolvedFrame {
+            log_time_ns: frame.log_time_ns,
+            header,
+            outcome,
+        })?;
     }
     Ok(())
 }

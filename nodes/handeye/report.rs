@@ -6,8 +6,8 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 use stereocal_vision::handeye::{
-    Calibration, HandEyeError, Method, RejectedSample, Sample, SampleResidual, Setup,
-    calibrate_screened,
+    Calibration, HandEye, HandEyeError, Method, RefinedHandEye, RejectedSample, Sample,
+    SampleResidual, Setup, calibrate_screened,
 };
 
 use crate::pose::record::TransformRecord;
@@ -34,6 +34,15 @@ pub struct ResidualsRecord {
     pub translation_mm_max: f64,
 }
 
+/// The joint refinement's standard deviations of the hand-eye transform.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UncertaintyRecord {
+    /// Rotation, degrees, along its least certain axis.
+    pub rotation_deg: f64,
+    /// Position, millimetres, along its least certain direction.
+    pub translation_mm: f64,
+}
+
 /// The frames the transforms are between.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FramesRecord {
@@ -58,17 +67,37 @@ pub struct HandEyeReport {
     /// disagreeing with the rest.
     pub samples_rejected: Vec<RejectedRecord>,
     /// Every method that succeeded: `tool_from_camera` (eye-in-hand) or
-    /// `base_from_camera` (eye-to-hand), by method name.
+    /// `base_from_camera` (eye-to-hand), by method name; `refined` for the joint
+    /// refinement on the target's pixels when the images were given.
     pub results: BTreeMap<String, TransformRecord>,
-    /// The method whose result is recommended: the least median residual.
+    /// The result recommended: `refined` when there is one, else the method with the
+    /// least median residual.
     pub chosen: String,
     /// The chosen calibration's target pose: `base_from_target` (eye-in-hand) or
     /// `tool_from_target` (eye-to-hand).
     pub target: TransformRecord,
     /// The chosen calibration's residuals.
     pub residuals: ResidualsRecord,
+    /// The refinement's standard deviations; absent without images.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub uncertainty: Option<UncertaintyRecord>,
+    /// The refinement's RMS pixel error over every point of every sample kept; absent
+    /// without images.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rms_px: Option<f64>,
     /// What weakens the result and what to add, and methods that failed.
     pub warnings: Vec<String>,
+}
+
+/// A session solved: the report, and the chosen calibration with the samples it kept,
+/// from which the joint refinement starts.
+pub struct Solved {
+    /// The report.
+    pub report: HandEyeReport,
+    /// The chosen method's calibration.
+    pub hand_eye: HandEye,
+    /// Indices of the samples it kept, ascending.
+    pub kept: Vec<usize>,
 }
 
 /// Calibrates the `stamped` samples (target pose stamp in seconds, sample) with every
@@ -83,7 +112,7 @@ pub fn solve(
     frames: FramesRecord,
     stamped: &[(f64, Sample)],
     unpaired: Vec<RejectedRecord>,
-) -> Result<HandEyeReport, HandEyeError> {
+) -> Result<Solved, HandEyeError> {
     let samples: Vec<Sample> = stamped.iter().map(|(_, s)| s.clone()).collect();
     let mut solved: Vec<(Calibration, Vec<RejectedSample>)> = Vec::new();
     let mut warnings = Vec::new();
@@ -113,7 +142,10 @@ pub fn solve(
     }));
     samples_rejected.sort_by(|a, b| a.stamp.total_cmp(&b.stamp));
     warnings.splice(0..0, chosen.warnings.iter().cloned());
-    Ok(HandEyeReport {
+    let kept = (0..stamped.len())
+        .filter(|i| !rejected.iter().any(|r| r.index == *i))
+        .collect();
+    let report = HandEyeReport {
         setup: setup.name().to_owned(),
         frames,
         samples: chosen.residuals.len(),
@@ -130,8 +162,39 @@ pub fn solve(
         chosen: chosen.method.name().to_owned(),
         target: TransformRecord::new(chosen.hand_eye.anchor_from_target()),
         residuals: residuals_record(&chosen.residuals),
+        uncertainty: None,
+        rms_px: None,
         warnings,
+    };
+    Ok(Solved {
+        report,
+        hand_eye: chosen.hand_eye.clone(),
+        kept,
     })
+}
+
+/// The report with the joint refinement of its `samples` (those the chosen method kept)
+/// added as `refined` and chosen.
+pub fn with_refinement(
+    mut report: HandEyeReport,
+    samples: &[Sample],
+    refined: &RefinedHandEye,
+) -> HandEyeReport {
+    let hand_eye = &refined.hand_eye;
+    report.results.insert(
+        "refined".to_owned(),
+        TransformRecord::new(hand_eye.mount_from_camera()),
+    );
+    report.chosen = "refined".to_owned();
+    report.target = TransformRecord::new(hand_eye.anchor_from_target());
+    let residuals: Vec<SampleResidual> = samples.iter().map(|s| hand_eye.residual(s)).collect();
+    report.residuals = residuals_record(&residuals);
+    report.uncertainty = Some(UncertaintyRecord {
+        rotation_deg: refined.uncertainty.rotation_deg,
+        translation_mm: refined.uncertainty.translation_mm,
+    });
+    report.rms_px = Some(refined.rms_px);
+    report
 }
 
 /// The median over the samples of the larger of rotation over 0.1 degree and

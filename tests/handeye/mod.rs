@@ -51,15 +51,24 @@ fn posed_session(
 }
 
 fn args(bag: std::path::PathBuf, setup: SetupArg, out: std::path::PathBuf) -> HandEyeArgs {
-    HandEyeArgs {
-        bag,
-        setup,
-        target_pose_topic: "/camera/target_pose".to_owned(),
-        robot_pose_topic: "/robot/tool_pose".to_owned(),
-        tool_frame: "tool".to_owned(),
-        max_time_difference: 0.02,
-        out,
-        json: false,
+    HandEyeArgs::from_poses(bag, setup, "/camera/target_pose", "/robot/tool_pose", out)
+}
+
+/// The true `mount_from_camera` and `anchor_from_target` of a session.
+fn truth_of(
+    truth: &stereocal_vision::synth::GroundTruth,
+    setup: SetupArg,
+) -> (Isometry3<f64>, Isometry3<f64>) {
+    let e = &truth.extrinsics;
+    match setup {
+        SetupArg::EyeInHand => (
+            e.tool_from_camera.as_ref().unwrap().isometry(),
+            e.base_from_target.as_ref().unwrap().isometry(),
+        ),
+        SetupArg::EyeToHand => (
+            e.base_from_camera.as_ref().unwrap().isometry(),
+            e.tool_from_target.as_ref().unwrap().isometry(),
+        ),
     }
 }
 
@@ -131,6 +140,39 @@ fn recovers_the_true_transform_in_both_setups() {
     }
 }
 
+/// From the images themselves: the target found in each, every method, and the joint
+/// refinement on the corners chosen, with its uncertainty and pixel error.
+#[test]
+fn refines_on_the_corners_when_given_the_images() {
+    let (dir, truth, _) = posed_session(SceneArg::HandeyeInHand, 84, 12);
+    let board = &truth.board;
+    let mut args = args(
+        dir.path().join("synth/bag"),
+        SetupArg::EyeInHand,
+        dir.path().join("handeye"),
+    );
+    args.target_pose_topic = None;
+    args.image_topic = Some("/camera/image_raw".to_owned());
+    args.size = Some(format!("{}x{}", board.cols, board.rows));
+    args.square = Some(board.square_size.to_string());
+    let report = handeye_bag(&args).unwrap();
+    assert_eq!(report.chosen, "refined");
+    assert_eq!(report.results.len(), 8, "{:?}", report.warnings);
+    let (expected, expected_target) = truth_of(&truth, SetupArg::EyeInHand);
+    let (deg, mm) = pose_error(&isometry(&report.results["refined"]), &expected);
+    println!(
+        "refined: {deg:.4} deg, {mm:.3} mm, {:?}",
+        report.uncertainty
+    );
+    assert!(deg < 0.02 && mm < 0.2, "refined: {deg} deg, {mm} mm");
+    let (deg, mm) = pose_error(&isometry(&report.target), &expected_target);
+    assert!(deg < 0.02 && mm < 0.2, "target: {deg} deg, {mm} mm");
+    let uncertainty = report.uncertainty.as_ref().unwrap();
+    assert!(uncertainty.rotation_deg > 0.0 && uncertainty.translation_mm > 0.0);
+    assert!(report.rms_px.unwrap() < 0.5, "{:?}", report.rms_px);
+    assert_eq!(report.frames.camera, "camera_optical_frame");
+}
+
 #[test]
 fn refuses_bad_arguments_and_too_few_samples() {
     let (dir, _, posed) = posed_session(SceneArg::HandeyeInHand, 83, 2);
@@ -148,7 +190,7 @@ fn refuses_bad_arguments_and_too_few_samples() {
     assert!(error.contains("no topic /robot/pose"), "{error}");
 
     let mut wrong_type = args(posed.clone(), SetupArg::EyeInHand, out.clone());
-    wrong_type.target_pose_topic = "/camera/camera_info".to_owned();
+    wrong_type.target_pose_topic = Some("/camera/camera_info".to_owned());
     let error = handeye_bag(&wrong_type).unwrap_err().to_string();
     assert!(error.contains("is a sensor_msgs/msg/CameraInfo"), "{error}");
 
