@@ -18,7 +18,8 @@ use stereocal_vision::rectify::{
     StereoRectification, StereoRectifyOptions, fisheye_stereo_rectify, stereo_rectify,
 };
 use stereocal_vision::synth::{
-    Chessboard, GroundTruth, PixelFormat, RigLayout, Scene, SceneKind, SceneSpec, StampRecord,
+    Chessboard, GroundTruth, PixelFormat, RigLayout, RobotNoise, Scene, SceneKind, SceneSpec,
+    StampRecord,
 };
 
 use crate::convert::{
@@ -94,6 +95,14 @@ pub struct SynthArgs {
     /// Stereo rigs: put the second camera below the first instead of beside it.
     #[arg(long)]
     pub vertical: bool,
+    /// Hand-eye sessions: standard deviation of the robot's reported rotation about
+    /// each axis, degrees (the true poses are in the ground truth).
+    #[arg(long = "robot-rotation-noise", default_value_t = 0.05)]
+    pub robot_rotation_noise: f64,
+    /// Hand-eye sessions: standard deviation of the robot's reported position along
+    /// each axis, millimetres.
+    #[arg(long = "robot-translation-noise", default_value_t = 0.3)]
+    pub robot_translation_noise: f64,
 }
 
 /// Arguments of the `stereocal synth` command: the scene, and the target it shows.
@@ -139,7 +148,7 @@ pub fn run_command(command: &SynthCommand) -> anyhow::Result<()> {
 impl SynthArgs {
     /// A `scene` of `frames` frames from `seed` into `out`, with every other option at
     /// its default (1024x768 mono8 plumb_bob, a horizontal rig, the scene's share of bad
-    /// frames).
+    /// frames, robot noise of 0.05 degree and 0.3 mm).
     pub fn new(scene: SceneArg, out: PathBuf, seed: u64, frames: usize) -> Self {
         Self {
             scene,
@@ -152,6 +161,8 @@ impl SynthArgs {
             bad_frames: None,
             rgb: false,
             vertical: false,
+            robot_rotation_noise: 0.05,
+            robot_translation_noise: 0.3,
         }
     }
 
@@ -184,6 +195,10 @@ impl SynthArgs {
             } else {
                 RigLayout::Horizontal
             },
+            robot_noise: RobotNoise {
+                rotation_rad: self.robot_rotation_noise.to_radians(),
+                translation_m: self.robot_translation_noise * 1e-3,
+            },
             ..defaults
         }
     }
@@ -201,6 +216,14 @@ pub fn run(args: &SynthArgs) -> anyhow::Result<()> {
 pub fn run_with_target(args: &SynthArgs, target: Option<&Target>) -> anyhow::Result<()> {
     if args.frames == Some(0) {
         bail!("--frames must be at least 1");
+    }
+    for (option, value) in [
+        ("--robot-rotation-noise", args.robot_rotation_noise),
+        ("--robot-translation-noise", args.robot_translation_noise),
+    ] {
+        if !(value.is_finite() && value >= 0.0) {
+            bail!("{option} {value}: expected a number of at least 0");
+        }
     }
     let mut spec = args.spec();
     if let Some(target) = target {
@@ -297,8 +320,12 @@ fn write_bag(scene: &Scene, path: &Path) -> anyhow::Result<()> {
             bag.write_message(*image_topic, log_time, &message)?;
             bag.write_message(*info_topic, log_time, &camera_info(index, header))?;
         }
-        if let (Some((pose_topic, tf_topic)), Some(base_from_tool)) = (robot, &frame.base_from_tool)
-        {
+        // The robot publishes the pose it reports, not the true one.
+        let reported = frame
+            .reported_base_from_tool
+            .as_ref()
+            .or(frame.base_from_tool.as_ref());
+        if let (Some((pose_topic, tf_topic)), Some(base_from_tool)) = (robot, reported) {
             let base_from_tool = base_from_tool.isometry();
             let header = Header {
                 stamp,

@@ -1,7 +1,9 @@
-//! `stereocal handeye` on rendered sessions: `stereocal pose` finds the target in every
-//! image, and the command pairs those poses with the bag's robot poses and recovers the
-//! true hand-eye transform, eye-in-hand and eye-to-hand; bad arguments and too few
-//! samples are refused with a clear message.
+//! `stereocal handeye` on rendered sessions whose robot reports its poses with an arm's
+//! noise (0.05 degree and 0.3 mm): `stereocal pose` finds the target in every image, and
+//! the command pairs those poses with the bag's robot poses and recovers the true
+//! hand-eye transform, eye-in-hand and eye-to-hand; from the images themselves it refines
+//! on the corners to within its predicted uncertainty; bad arguments and too few samples
+//! are refused with a clear message.
 
 use indicatif::ProgressBar;
 use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
@@ -112,17 +114,18 @@ fn recovers_the_true_transform_in_both_setups() {
             ),
         };
         assert_eq!(report.results.len(), 7, "{setup:?}: {:?}", report.warnings);
+        // Twelve samples with the robot's noise: every method within 0.1 degree and 2 mm.
         for (method, result) in &report.results {
             let (deg, mm) = pose_error(&isometry(result), &expected);
             println!("{setup:?} {method}: {deg:.4} deg, {mm:.3} mm");
             assert!(
-                deg < 0.02 && mm < 0.2,
+                deg < 0.1 && mm < 2.0,
                 "{setup:?} {method}: {deg} deg, {mm} mm"
             );
         }
         let (deg, mm) = pose_error(&isometry(&report.target), &expected_target);
         assert!(
-            deg < 0.02 && mm < 0.2,
+            deg < 0.1 && mm < 2.0,
             "{setup:?} target: {deg} deg, {mm} mm"
         );
         assert_eq!(report.samples, 12);
@@ -164,11 +167,14 @@ fn refines_on_the_corners_when_given_the_images() {
         "refined: {deg:.4} deg, {mm:.3} mm, {:?}",
         report.uncertainty
     );
-    assert!(deg < 0.02 && mm < 0.2, "refined: {deg} deg, {mm} mm");
-    let (deg, mm) = pose_error(&isometry(&report.target), &expected_target);
-    assert!(deg < 0.02 && mm < 0.2, "target: {deg} deg, {mm} mm");
+    // Within three of its own standard deviations of the truth.
     let uncertainty = report.uncertainty.as_ref().unwrap();
-    assert!(uncertainty.rotation_deg > 0.0 && uncertainty.translation_mm > 0.0);
+    assert!(
+        deg < 3.0 * uncertainty.rotation_deg && mm < 3.0 * uncertainty.translation_mm,
+        "refined: {deg} deg, {mm} mm against {uncertainty:?}"
+    );
+    let (deg, mm) = pose_error(&isometry(&report.target), &expected_target);
+    assert!(deg < 0.1 && mm < 2.0, "target: {deg} deg, {mm} mm");
     assert!(report.rms_px.unwrap() < 0.5, "{:?}", report.rms_px);
     assert_eq!(report.frames.camera, "camera_optical_frame");
 }

@@ -22,7 +22,9 @@ pub use photometry::Photometry;
 pub use poses::{Coverage, PoseRanges, PoseSampler};
 pub use render::{PixelFormat, Renderer, Shot};
 pub use saddle::{SaddleFit, saddle_point, saddle_point_through_lens};
-pub use scene::{HandEye, RigLayout, Scene, SceneKind, SceneSpec, StereoRig, synthetic_camera};
+pub use scene::{
+    HandEye, RigLayout, RobotNoise, Scene, SceneKind, SceneSpec, StereoRig, synthetic_camera,
+};
 pub use truth::{
     CameraRecord, CornerRecord, ExtrinsicsRecord, FrameKind, FrameRecord, GroundTruth,
     MotionRecord, StampRecord, TransformRecord, ViewRecord, corner_truth,

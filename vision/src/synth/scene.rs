@@ -7,6 +7,7 @@ use std::sync::Arc;
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
 
 use super::SynthError;
 use super::background::Background;
@@ -25,6 +26,8 @@ use crate::image::Image;
 const START_SEC: i32 = 1_700_000_000;
 /// Edge supersampling of clean frames, samples per pixel side.
 const SUPERSAMPLING: usize = 6;
+/// Mixed into the seed for the random stream of the robot's noise.
+const ROBOT_NOISE_STREAM: u64 = 0x524f_424f_545f_4e5a;
 
 /// The kinds of scene synth makes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -93,6 +96,40 @@ pub struct SceneSpec {
     pub baseline: f64,
     /// Time between frames, seconds.
     pub period: f64,
+    /// Hand-eye sessions: the noise of the robot's reported poses.
+    pub robot_noise: RobotNoise,
+}
+
+/// Gaussian noise on a robot's reported poses: a rotation vector and a translation in
+/// the tool frame, `reported = true * exp(noise)`, each component with its standard
+/// deviation.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RobotNoise {
+    /// Standard deviation of each rotation-vector component, radians.
+    pub rotation_rad: f64,
+    /// Standard deviation of each translation component, metres.
+    pub translation_m: f64,
+}
+
+impl RobotNoise {
+    /// One draw of the noise as a transform in the tool frame.
+    pub fn sample(&self, rng: &mut ChaCha8Rng) -> Isometry3<f64> {
+        let mut gaussian = |sigma: f64| {
+            // Box-Muller.
+            let u: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
+            let v: f64 = rng.random_range(0.0..1.0);
+            sigma * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+        };
+        let translation = Vector3::from_fn(|_, _| gaussian(self.translation_m));
+        let rotation = Vector3::from_fn(|_, _| gaussian(self.rotation_rad));
+        Isometry3::new(translation, rotation)
+    }
+
+    /// No noise.
+    pub const NONE: Self = Self {
+        rotation_rad: 0.0,
+        translation_m: 0.0,
+    };
 }
 
 impl SceneSpec {
@@ -129,6 +166,15 @@ impl SceneSpec {
             layout: RigLayout::Horizontal,
             baseline: 0.12,
             period: 0.5,
+            // An industrial arm's repeatability: 0.05 degree and 0.3 mm.
+            robot_noise: if kind.is_hand_eye() {
+                RobotNoise {
+                    rotation_rad: 0.05_f64.to_radians(),
+                    translation_m: 0.3e-3,
+                }
+            } else {
+                RobotNoise::NONE
+            },
         }
     }
 }
@@ -366,6 +412,8 @@ impl Scene {
         }
         let board = spec.board.checked()?;
         let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
+        // The robot's noise has a stream of its own: the images do not change with it.
+        let mut robot_rng = ChaCha8Rng::seed_from_u64(spec.seed ^ ROBOT_NOISE_STREAM);
         let background = Arc::new(Background::new(rng.random()));
 
         let mut extrinsics = ExtrinsicsRecord::default();
@@ -478,13 +526,13 @@ impl Scene {
                 });
             }
             let stamp_ns = (index as f64 * spec.period * 1e9).round() as u64;
-            let base_from_tool =
-                hand_eye
-                    .as_ref()
-                    .zip(poses.first())
-                    .map(|(setup, camera_from_target)| {
-                        (&setup.base_from_tool(camera_from_target)).into()
-                    });
+            let true_base_from_tool = hand_eye
+                .as_ref()
+                .zip(poses.first())
+                .map(|(setup, camera_from_target)| setup.base_from_tool(camera_from_target));
+            let base_from_tool = true_base_from_tool.as_ref().map(Into::into);
+            let reported_base_from_tool = true_base_from_tool
+                .map(|pose| (&(pose * spec.robot_noise.sample(&mut robot_rng))).into());
             frames.push(FrameRecord {
                 index,
                 stamp: StampRecord {
@@ -493,6 +541,7 @@ impl Scene {
                 },
                 kind,
                 base_from_tool,
+                reported_base_from_tool,
                 views,
             });
             shots.push(frame_shots);
@@ -520,6 +569,7 @@ impl Scene {
                 .map(|(name, camera, _)| CameraRecord::new(name, camera))
                 .collect(),
             extrinsics,
+            robot_noise: hand_eye.as_ref().map(|_| spec.robot_noise),
             frames,
         };
         Ok(Self {

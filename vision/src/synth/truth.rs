@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 
 use super::board::Chessboard;
 use super::rays::ray_through_pixel;
+use super::scene::RobotNoise;
 use crate::camera::{CameraModel, Distortion, DistortionModel, Intrinsics};
 
 /// A rigid transform `a_from_b` as written in ground-truth files: the rotation both as a
@@ -199,9 +200,13 @@ pub struct FrameRecord {
     pub stamp: StampRecord,
     /// Good or bad, and how.
     pub kind: FrameKind,
-    /// Hand-eye sessions: the robot's pose at the stamp.
+    /// Hand-eye sessions: the robot's true pose at the stamp.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub base_from_tool: Option<TransformRecord>,
+    /// Hand-eye sessions: the pose the robot reports, its true pose with the noise of
+    /// [`GroundTruth::robot_noise`]: what the bag holds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reported_base_from_tool: Option<TransformRecord>,
     /// One view per camera, in the order of [`GroundTruth::cameras`].
     pub views: Vec<ViewRecord>,
 }
@@ -219,6 +224,9 @@ pub struct GroundTruth {
     pub cameras: Vec<CameraRecord>,
     /// Fixed transforms between cameras, robot and target.
     pub extrinsics: ExtrinsicsRecord,
+    /// Hand-eye sessions: the noise of the robot's reported poses.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robot_noise: Option<RobotNoise>,
     /// The frames, in time order.
     pub frames: Vec<FrameRecord>,
 }
