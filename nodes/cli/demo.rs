@@ -1,6 +1,8 @@
 //! `stereocal demo`: the main job on the bundled stereo bag. Rectifies it offline and
 //! through two rectify nodes over DDS, and measures on the rectified pixels how well
-//! the rows of the left and right images agree, against the scene's ground truth.
+//! the rows of the left and right images agree, against the scene's ground truth; then
+//! calibrates a synthetic stereo session and a synthetic eye-in-hand session and
+//! prints their errors against the truth.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -9,6 +11,7 @@ use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 
 use crate::cli::calibrate::{CalibrateArgs, calibrate_bag};
+use crate::cli::handeye::{HandEyeArgs, SetupArg, handeye_bag};
 use crate::cli::rectify::{BagRectifyOptions, rectify_bag};
 use crate::cli::synth::{SceneArg, SynthArgs};
 use crate::convert::calibrated_camera_from_info;
@@ -88,6 +91,7 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
     print_alignment(&offline_alignment, offline_frames);
 
     calibration_session(&out, args.out.is_some())?;
+    hand_eye_session(&out)?;
 
     if args.offline_only {
         return Ok(());
@@ -141,6 +145,58 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<()> {
 /// `stereocal calibrate`, and rectified with the result: the errors against the
 /// session's ground truth. `kept`: `out` stays after the demo, so its report is worth
 /// pointing to.
+/// A synthetic eye-in-hand session, with the robot's noise, calibrated from its images:
+/// every method's error and the joint refinement's against the truth.
+fn hand_eye_session(out: &Path) -> anyhow::Result<()> {
+    let dir = out.join("handeye");
+    println!(
+        "\nhand-eye: a synthetic eye-in-hand session (robot noise 0.05 degree, 0.3 mm), \
+         calibrated from its images"
+    );
+    crate::cli::synth::run(&SynthArgs::new(SceneArg::HandeyeInHand, dir.clone(), 1, 15))?;
+    let text = std::fs::read_to_string(dir.join("ground_truth.json"))
+        .context("reading the hand-eye session's ground truth")?;
+    let truth: stereocal_vision::synth::GroundTruth =
+        serde_json::from_str(&text).context("decoding the hand-eye session's ground truth")?;
+    let tool_from_camera = truth
+        .extrinsics
+        .tool_from_camera
+        .context("the eye-in-hand session has no tool_from_camera")?
+        .isometry();
+    let board = truth.board;
+    let report = handeye_bag(&HandEyeArgs::from_images(
+        dir.join("bag"),
+        SetupArg::EyeInHand,
+        "/camera/image_raw",
+        (board.cols, board.rows, board.square_size),
+        "/robot/tool_pose",
+        dir.join("result"),
+    ))?;
+    for (method, result) in &report.results {
+        let found = crate::pose::record::isometry_of(result);
+        let error = found.inverse() * tool_from_camera;
+        println!(
+            "  {method:<10} tool_from_camera error {:.4} deg, {:.3} mm{}",
+            error.rotation.angle().to_degrees(),
+            (found.translation.vector - tool_from_camera.translation.vector).norm() * 1e3,
+            if *method == report.chosen {
+                "  (chosen)"
+            } else {
+                ""
+            }
+        );
+    }
+    if let Some(u) = &report.uncertainty {
+        println!(
+            "  refined: predicted standard deviation {:.4} deg, {:.3} mm; corners {:.3} px RMS",
+            u.rotation_deg,
+            u.translation_mm,
+            report.rms_px.unwrap_or(f64::NAN)
+        );
+    }
+    Ok(())
+}
+
 fn calibration_session(out: &Path, kept: bool) -> anyhow::Result<()> {
     let dir = out.join("calibration");
     println!("\ncalibration: a synthetic stereo session, calibrated and rectified with the result");

@@ -121,9 +121,36 @@ impl HandEyeArgs {
         out: PathBuf,
     ) -> Self {
         Self {
+            target_pose_topic: Some(target_pose_topic.to_owned()),
+            ..Self::defaults(bag, setup, robot_pose_topic, out)
+        }
+    }
+
+    /// The arguments for a session of `setup` in `bag` whose images on `image_topic`
+    /// show a `cols x rows` chessboard (inner corners) of `square` metres, and whose
+    /// robot poses are on `robot_pose_topic`, written to `out`, with every other option
+    /// at its default.
+    pub fn from_images(
+        bag: PathBuf,
+        setup: SetupArg,
+        image_topic: &str,
+        (cols, rows, square): (usize, usize, f64),
+        robot_pose_topic: &str,
+        out: PathBuf,
+    ) -> Self {
+        Self {
+            image_topic: Some(image_topic.to_owned()),
+            size: Some(format!("{cols}x{rows}")),
+            square: Some(square.to_string()),
+            ..Self::defaults(bag, setup, robot_pose_topic, out)
+        }
+    }
+
+    fn defaults(bag: PathBuf, setup: SetupArg, robot_pose_topic: &str, out: PathBuf) -> Self {
+        Self {
             bag,
             setup,
-            target_pose_topic: Some(target_pose_topic.to_owned()),
+            target_pose_topic: None,
             image_topic: None,
             camera_info: None,
             pattern: "chessboard".to_owned(),

@@ -1,7 +1,7 @@
 //! One frame's pose result as data: what `stereocal pose --json` prints per image and
 //! what `pose_node`'s `~/status` reports of the last frame.
 
-use nalgebra::Isometry3;
+use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
 use serde::{Deserialize, Serialize};
 use stereocal_msgs::builtin_interfaces::Time;
 
@@ -16,6 +16,16 @@ pub struct TransformRecord {
     pub rotation: [f64; 9],
     /// Translation, metres.
     pub translation: [f64; 3],
+}
+
+/// The transform a record holds.
+pub fn isometry_of(record: &TransformRecord) -> Isometry3<f64> {
+    let rotation = Rotation3::from_matrix(&Matrix3::from_row_slice(&record.rotation));
+    let [x, y, z] = record.translation;
+    Isometry3::from_parts(
+        Translation3::new(x, y, z),
+        UnitQuaternion::from_rotation_matrix(&rotation),
+    )
 }
 
 impl TransformRecord {

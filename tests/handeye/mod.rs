@@ -6,24 +6,15 @@
 //! are refused with a clear message.
 
 use indicatif::ProgressBar;
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
+use nalgebra::Isometry3;
 use stereocal::cli::handeye::{HandEyeArgs, SetupArg, handeye_bag};
 use stereocal::cli::pose::{PoseArgs, pose_bag};
 use stereocal::cli::synth::{SceneArg, SynthArgs};
 use stereocal::handeye::report::HandEyeReport;
-use stereocal::pose::record::TransformRecord;
+use stereocal::pose::record::isometry_of;
 
 use crate::common;
 use crate::pose::pose_error;
-
-fn isometry(record: &TransformRecord) -> Isometry3<f64> {
-    let r = Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(&record.rotation));
-    let [x, y, z] = record.translation;
-    Isometry3::from_parts(
-        Translation3::new(x, y, z),
-        UnitQuaternion::from_rotation_matrix(&r),
-    )
-}
 
 /// A rendered session of `frames` frames run through `stereocal pose`: the directory,
 /// the truth, and the pose bag.
@@ -116,14 +107,14 @@ fn recovers_the_true_transform_in_both_setups() {
         assert_eq!(report.results.len(), 7, "{setup:?}: {:?}", report.warnings);
         // Twelve samples with the robot's noise: every method within 0.1 degree and 2 mm.
         for (method, result) in &report.results {
-            let (deg, mm) = pose_error(&isometry(result), &expected);
+            let (deg, mm) = pose_error(&isometry_of(result), &expected);
             println!("{setup:?} {method}: {deg:.4} deg, {mm:.3} mm");
             assert!(
                 deg < 0.1 && mm < 2.0,
                 "{setup:?} {method}: {deg} deg, {mm} mm"
             );
         }
-        let (deg, mm) = pose_error(&isometry(&report.target), &expected_target);
+        let (deg, mm) = pose_error(&isometry_of(&report.target), &expected_target);
         assert!(
             deg < 0.1 && mm < 2.0,
             "{setup:?} target: {deg} deg, {mm} mm"
@@ -149,20 +140,19 @@ fn recovers_the_true_transform_in_both_setups() {
 fn refines_on_the_corners_when_given_the_images() {
     let (dir, truth, _) = posed_session(SceneArg::HandeyeInHand, 84, 12);
     let board = &truth.board;
-    let mut args = args(
+    let args = HandEyeArgs::from_images(
         dir.path().join("synth/bag"),
         SetupArg::EyeInHand,
+        "/camera/image_raw",
+        (board.cols, board.rows, board.square_size),
+        "/robot/tool_pose",
         dir.path().join("handeye"),
     );
-    args.target_pose_topic = None;
-    args.image_topic = Some("/camera/image_raw".to_owned());
-    args.size = Some(format!("{}x{}", board.cols, board.rows));
-    args.square = Some(board.square_size.to_string());
     let report = handeye_bag(&args).unwrap();
     assert_eq!(report.chosen, "refined");
     assert_eq!(report.results.len(), 8, "{:?}", report.warnings);
     let (expected, expected_target) = truth_of(&truth, SetupArg::EyeInHand);
-    let (deg, mm) = pose_error(&isometry(&report.results["refined"]), &expected);
+    let (deg, mm) = pose_error(&isometry_of(&report.results["refined"]), &expected);
     println!(
         "refined: {deg:.4} deg, {mm:.3} mm, {:?}",
         report.uncertainty
@@ -173,7 +163,7 @@ fn refines_on_the_corners_when_given_the_images() {
         deg < 3.0 * uncertainty.rotation_deg && mm < 3.0 * uncertainty.translation_mm,
         "refined: {deg} deg, {mm} mm against {uncertainty:?}"
     );
-    let (deg, mm) = pose_error(&isometry(&report.target), &expected_target);
+    let (deg, mm) = pose_error(&isometry_of(&report.target), &expected_target);
     assert!(deg < 0.1 && mm < 2.0, "target: {deg} deg, {mm} mm");
     assert!(report.rms_px.unwrap() < 0.5, "{:?}", report.rms_px);
     assert_eq!(report.frames.camera, "camera_optical_frame");

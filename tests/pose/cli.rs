@@ -4,10 +4,10 @@
 //! from a file instead of the bag, and clear refusals of bad arguments.
 
 use indicatif::ProgressBar;
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion};
+use nalgebra::Isometry3;
 use stereocal::cli::pose::{PoseArgs, pose_bag};
 use stereocal::cli::synth::ModelArg;
-use stereocal::pose::record::{FrameRecord, seconds};
+use stereocal::pose::record::{FrameRecord, isometry_of, seconds};
 use stereocal_msgs::CameraInfoFile;
 use stereocal_msgs::geometry_msgs::PoseStamped;
 use stereocal_msgs::tf2_msgs::TFMessage;
@@ -22,12 +22,7 @@ fn isometry(record: &FrameRecord) -> Option<Isometry3<f64>> {
     else {
         return None;
     };
-    let r = Rotation3::from_matrix_unchecked(Matrix3::from_row_slice(&camera_from_target.rotation));
-    let [x, y, z] = camera_from_target.translation;
-    Some(Isometry3::from_parts(
-        Translation3::new(x, y, z),
-        UnitQuaternion::from_rotation_matrix(&r),
-    ))
+    Some(isometry_of(camera_from_target))
 }
 
 #[test]
