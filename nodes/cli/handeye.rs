@@ -5,7 +5,8 @@
 //! stamp. Every method of `vision::handeye` solves the pairs after leaving out those
 //! that disagree; the result with the least median residual is chosen, and with images
 //! it starts the joint refinement on the target's pixels, which is then chosen. Writes
-//! `DIR/handeye.yaml` atomically; with `--json`, prints the same report on stdout.
+//! `DIR/handeye.yaml` and `DIR/report.html` atomically; with `--json`, prints the same
+//! report on stdout.
 
 use std::path::PathBuf;
 
@@ -25,6 +26,7 @@ use stereocal_vision::pnp::PoseOptions;
 use super::calibrate::CharucoArgs;
 use super::pose::FrameInput;
 use crate::convert::isometry_from_pose_msg;
+use crate::handeye::page::html;
 use crate::handeye::pairing::RobotTrack;
 use crate::handeye::report::{FramesRecord, HandEyeReport, RejectedRecord, solve, with_refinement};
 use crate::pose::record::seconds;
@@ -274,7 +276,8 @@ pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
     )
     .with_context(|| format!("hand-eye calibration of {}", args.bag.display()))?;
     let mut report = solved.report;
-    let kept: Vec<Sample> = solved.kept.iter().map(|&i| stamped[i].1.clone()).collect();
+    let kept: Vec<(f64, Sample)> = solved.kept.iter().map(|&i| stamped[i].clone()).collect();
+    let kept_samples: Vec<Sample> = kept.iter().map(|(_, s)| s.clone()).collect();
     let kept_observations: Option<Vec<(TargetObservation, CameraModel)>> = solved
         .kept
         .iter()
@@ -288,7 +291,7 @@ pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
             kept_observations.into_iter().map(|(o, _)| o).collect();
         match refine(
             &camera,
-            &kept,
+            &kept_samples,
             &observations,
             &solved.hand_eye,
             &refine_options,
@@ -302,6 +305,10 @@ pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
     let path = args.out.join("handeye.yaml");
     let text = serde_yaml::to_string(&report).context("encoding handeye.yaml")?;
     atomic_file::write(&path, text.as_bytes())
+        .with_context(|| format!("writing {}", path.display()))?;
+    let path = args.out.join("report.html");
+    let page = html(&report).context("making report.html")?;
+    atomic_file::write(&path, page.as_bytes())
         .with_context(|| format!("writing {}", path.display()))?;
     Ok(report)
 }

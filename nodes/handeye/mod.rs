@@ -1,7 +1,8 @@
 //! Hand-eye calibration of a recorded or live session: robot poses paired with target
 //! poses by stamp ([`pairing`]), every method of `vision::handeye` run on the pairs, and
 //! the result as one serializable report ([`report`]) that `stereocal handeye --json`
-//! prints and `handeye.yaml` holds.
+//! prints, `handeye.yaml` holds and `report.html` ([`page`]) shows.
 
+pub mod page;
 pub mod pairing;
 pub mod report;

@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 use stereocal_vision::handeye::{
     Calibration, HandEye, HandEyeError, Method, RefinedHandEye, RejectedSample, Sample,
-    SampleResidual, Setup, calibrate_screened,
+    SampleResidual, Setup, calibrate_screened, motion_spread,
 };
 
 use crate::pose::record::TransformRecord;
@@ -41,6 +41,37 @@ pub struct UncertaintyRecord {
     pub rotation_deg: f64,
     /// Position, millimetres, along its least certain direction.
     pub translation_mm: f64,
+}
+
+/// One paired sample under the chosen calibration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SampleRecord {
+    /// Stamp of its target pose, seconds.
+    pub stamp: f64,
+    /// Rotation between its measured and predicted target pose, degrees.
+    pub rotation_deg: f64,
+    /// Distance between its measured and predicted target origin, millimetres.
+    pub translation_mm: f64,
+    /// The refinement's RMS pixel error of its target points, when refined.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reprojection_rms_px: Option<f64>,
+    /// Why it was left out, when it was.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rejected: Option<String>,
+}
+
+/// How the robot turned between the samples (see `vision::handeye::MotionSpread`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MotionRecord {
+    /// The largest rotation between two samples, degrees.
+    pub largest_rotation_deg: f64,
+    /// RMS angle of the motions' rotation axes from their main direction, degrees.
+    pub axis_spread_deg: f64,
+    /// The main direction of the rotation axes, in the frame the camera is fixed to.
+    pub main_axis: [f64; 3],
+    /// Each motion between two samples: its unit rotation axis (same frame) and angle
+    /// (degrees).
+    pub motions: Vec<([f64; 3], f64)>,
 }
 
 /// The frames the transforms are between.
@@ -78,6 +109,10 @@ pub struct HandEyeReport {
     pub target: TransformRecord,
     /// The chosen calibration's residuals.
     pub residuals: ResidualsRecord,
+    /// Every paired sample under the chosen calibration, in stamp order.
+    pub per_sample: Vec<SampleRecord>,
+    /// How the robot turned between the samples.
+    pub motion: MotionRecord,
     /// The refinement's standard deviations; absent without images.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub uncertainty: Option<UncertaintyRecord>,
@@ -145,6 +180,34 @@ pub fn solve(
     let kept = (0..stamped.len())
         .filter(|i| !rejected.iter().any(|r| r.index == *i))
         .collect();
+    let per_sample = stamped
+        .iter()
+        .enumerate()
+        .map(|(index, (stamp, sample))| {
+            let residual = chosen.hand_eye.residual(sample);
+            SampleRecord {
+                stamp: *stamp,
+                rotation_deg: residual.rotation_rad.to_degrees(),
+                translation_mm: residual.translation_m * 1e3,
+                reprojection_rms_px: None,
+                rejected: rejected
+                    .iter()
+                    .find(|r| r.index == index)
+                    .map(|r| r.reason.clone()),
+            }
+        })
+        .collect();
+    let spread = motion_spread(setup, &samples);
+    let motion = MotionRecord {
+        largest_rotation_deg: spread.largest_rotation_rad.to_degrees(),
+        axis_spread_deg: spread.axis_spread_rad.to_degrees(),
+        main_axis: spread.main_axis.into(),
+        motions: spread
+            .motions
+            .iter()
+            .map(|(axis, angle)| ((*axis).into(), angle.to_degrees()))
+            .collect(),
+    };
     let report = HandEyeReport {
         setup: setup.name().to_owned(),
         frames,
@@ -162,6 +225,8 @@ pub fn solve(
         chosen: chosen.method.name().to_owned(),
         target: TransformRecord::new(chosen.hand_eye.anchor_from_target()),
         residuals: residuals_record(&chosen.residuals),
+        per_sample,
+        motion,
         uncertainty: None,
         rms_px: None,
         warnings,
@@ -173,11 +238,11 @@ pub fn solve(
     })
 }
 
-/// The report with the joint refinement of its `samples` (those the chosen method kept)
-/// added as `refined` and chosen.
+/// The report with the joint refinement of its `samples` (those the chosen method kept,
+/// stamped as in `per_sample`) added as `refined` and chosen.
 pub fn with_refinement(
     mut report: HandEyeReport,
-    samples: &[Sample],
+    samples: &[(f64, Sample)],
     refined: &RefinedHandEye,
 ) -> HandEyeReport {
     let hand_eye = &refined.hand_eye;
@@ -187,8 +252,18 @@ pub fn with_refinement(
     );
     report.chosen = "refined".to_owned();
     report.target = TransformRecord::new(hand_eye.anchor_from_target());
-    let residuals: Vec<SampleResidual> = samples.iter().map(|s| hand_eye.residual(s)).collect();
+    let residuals: Vec<SampleResidual> =
+        samples.iter().map(|(_, s)| hand_eye.residual(s)).collect();
     report.residuals = residuals_record(&residuals);
+    for record in &mut report.per_sample {
+        let Some(position) = samples.iter().position(|(stamp, _)| *stamp == record.stamp) else {
+            continue;
+        };
+        let residual = &residuals[position];
+        record.rotation_deg = residual.rotation_rad.to_degrees();
+        record.translation_mm = residual.translation_m * 1e3;
+        record.reprojection_rms_px = refined.sample_rms_px.get(position).copied();
+    }
     report.uncertainty = Some(UncertaintyRecord {
         rotation_deg: refined.uncertainty.rotation_deg,
         translation_mm: refined.uncertainty.translation_mm,

@@ -167,6 +167,22 @@ fn refines_on_the_corners_when_given_the_images() {
     assert!(deg < 0.1 && mm < 2.0, "target: {deg} deg, {mm} mm");
     assert!(report.rms_px.unwrap() < 0.5, "{:?}", report.rms_px);
     assert_eq!(report.frames.camera, "camera_optical_frame");
+    assert_eq!(report.per_sample.len(), 12);
+    assert!(
+        report
+            .per_sample
+            .iter()
+            .all(|s| s.reprojection_rms_px.is_some_and(|r| r < 0.5) && s.rejected.is_none())
+    );
+    assert_eq!(report.motion.motions.len(), 12 * 11 / 2);
+
+    // The page: every method's row, a bar per sample in both residual charts, a dot per
+    // motion, nothing fetched or run.
+    let page = std::fs::read_to_string(dir.path().join("handeye/report.html")).unwrap();
+    assert_eq!(page.matches("<tr data-method=").count(), 8);
+    assert_eq!(page.matches("class=\"sample-bar used\"").count(), 2 * 12);
+    assert_eq!(page.matches("class=\"motion\"").count(), 66);
+    assert!(!page.contains("<script") && !page.contains("http"));
 }
 
 #[test]

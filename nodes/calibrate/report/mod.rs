@@ -9,13 +9,13 @@
 
 mod coverage;
 mod distortion;
-mod html;
+pub(crate) mod html;
 mod per_view;
 mod rectified_pair;
 mod residuals;
 mod sample;
 mod summary;
-mod svg;
+pub(crate) mod svg;
 mod views;
 
 use std::path::{Path, PathBuf};

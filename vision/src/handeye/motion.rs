@@ -75,6 +75,9 @@ pub struct MotionSpread {
     pub axis_spread_rad: f64,
     /// The main direction of the rotation axes, in the frame the camera is fixed to.
     pub main_axis: Vector3<f64>,
+    /// Each motion between two samples that turns at all: its unit rotation axis, in
+    /// the frame the camera is fixed to, and its angle, radians.
+    pub motions: Vec<(Vector3<f64>, f64)>,
 }
 
 /// The spread of the motions between `samples`.
@@ -84,6 +87,7 @@ pub fn motion_spread(setup: Setup, samples: &[Sample]) -> MotionSpread {
     let mut largest_rotation_rad: f64 = 0.0;
     let mut scatter = Matrix3::zeros();
     let mut turning = 0usize;
+    let mut motions = Vec::new();
     for i in 0..anchor_from_mount.len() {
         for j in i + 1..anchor_from_mount.len() {
             let a = anchor_from_mount[j].inverse() * anchor_from_mount[i];
@@ -91,6 +95,7 @@ pub fn motion_spread(setup: Setup, samples: &[Sample]) -> MotionSpread {
                 continue;
             };
             largest_rotation_rad = largest_rotation_rad.max(angle);
+            motions.push((axis.into_inner(), angle));
             if angle >= DEGENERATE_ROTATION_RAD {
                 scatter += axis.into_inner() * axis.transpose();
                 turning += 1;
@@ -112,6 +117,7 @@ pub fn motion_spread(setup: Setup, samples: &[Sample]) -> MotionSpread {
         largest_rotation_rad,
         axis_spread_rad,
         main_axis,
+        motions,
     }
 }
 

@@ -72,6 +72,8 @@ pub struct RefinedHandEye {
     pub base_from_tool: Vec<Isometry3<f64>>,
     /// RMS pixel error over every point of every sample.
     pub rms_px: f64,
+    /// RMS pixel error of each sample's points, in sample order.
+    pub sample_rms_px: Vec<f64>,
     /// The standard deviations of the hand-eye transform.
     pub uncertainty: Uncertainty,
     /// Levenberg-Marquardt iterations taken.
@@ -186,6 +188,7 @@ pub fn refine(
             state.mount_from_camera,
             state.anchor_from_target,
         ),
+        sample_rms_px: problem.sample_rms(&state),
         base_from_tool: state.base_from_tool,
         rms_px: (lin.pixel_squared_error / lin.points.max(1) as f64).sqrt(),
         uncertainty,
@@ -237,6 +240,36 @@ struct Linearization {
 }
 
 impl Problem<'_> {
+    /// Each sample's RMS pixel error at `state` (NaN where a point is behind the
+    /// camera).
+    fn sample_rms(&self, state: &State) -> Vec<f64> {
+        let camera_from_mount = state.mount_from_camera.inverse();
+        state
+            .base_from_tool
+            .iter()
+            .zip(self.observations)
+            .map(|(base_from_tool, observation)| {
+                let anchor_from_mount = match self.setup {
+                    Setup::EyeInHand => *base_from_tool,
+                    Setup::EyeToHand => base_from_tool.inverse(),
+                };
+                let camera_from_target =
+                    camera_from_mount * anchor_from_mount.inverse() * state.anchor_from_target;
+                let squared: f64 = observation
+                    .target_points
+                    .iter()
+                    .zip(&observation.pixels)
+                    .map(|(point, pixel)| {
+                        self.camera
+                            .project(&(camera_from_target * point))
+                            .map_or(f64::NAN, |p| (p - pixel).norm_squared())
+                    })
+                    .sum();
+                (squared / observation.pixels.len().max(1) as f64).sqrt()
+            })
+            .collect()
+    }
+
     fn linearize(&self, state: &State) -> Option<Linearization> {
         let n = self.measured.len();
         let size = 12 + 6 * n;
