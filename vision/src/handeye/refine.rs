@@ -398,112 +398,7 @@ fn uncertainty(covariance: &Matrix6<f64>, mount_from_camera: &Isometry3<f64>) ->
 mod tests {
     use super::*;
     use crate::handeye::{Method, calibrate};
-    use crate::pnp::{Correspondences, PoseOptions, estimate_pose, test_camera};
-    use nalgebra::{Translation3, UnitQuaternion, Vector2, Vector3};
-    use rand::{RngExt, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-
-    fn gaussian(rng: &mut ChaCha8Rng, sigma: f64) -> f64 {
-        let u: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
-        let v: f64 = rng.random_range(0.0..1.0);
-        sigma * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-
-    fn board() -> Vec<Point3<f64>> {
-        (0..6)
-            .flat_map(|r| (0..9).map(move |c| Point3::new(c as f64 * 0.03, r as f64 * 0.03, 0.0)))
-            .collect()
-    }
-
-    /// A view of the board from 0.4 to 0.8 m, tilted up to about 35 degrees, with every
-    /// corner in the image.
-    fn view(rng: &mut ChaCha8Rng, camera: &CameraModel, points: &[Point3<f64>]) -> Isometry3<f64> {
-        loop {
-            let tilt = Vector3::new(
-                rng.random_range(-0.6..0.6),
-                rng.random_range(-0.6..0.6),
-                rng.random_range(-1.5..1.5),
-            );
-            let rotation = UnitQuaternion::from_scaled_axis(tilt)
-                * UnitQuaternion::from_scaled_axis(Vector3::x() * std::f64::consts::PI);
-            let centre = Vector3::new(0.12, 0.075, 0.0);
-            let aim = Vector3::new(
-                rng.random_range(-0.1..0.1),
-                rng.random_range(-0.08..0.08),
-                rng.random_range(0.4..0.8),
-            );
-            let pose = Isometry3::from_parts(Translation3::from(aim - rotation * centre), rotation);
-            let inside = points.iter().all(|p| {
-                camera
-                    .project(&(pose * p))
-                    .is_some_and(|px| px.x > 20.0 && px.y > 20.0 && px.x < 1004.0 && px.y < 748.0)
-            });
-            if inside {
-                return pose;
-            }
-        }
-    }
-
-    struct Session {
-        samples: Vec<Sample>,
-        observations: Vec<TargetObservation>,
-        mount_from_camera: Isometry3<f64>,
-    }
-
-    /// 15 samples of a setup: the board seen from random views, corners with 0.2 px of
-    /// noise, robot poses with 0.05 degree and 0.3 mm, target poses by `estimate_pose`.
-    fn session(rng: &mut ChaCha8Rng, setup: Setup) -> Session {
-        let camera = test_camera();
-        let points = board();
-        let mount_from_camera = Isometry3::new(
-            Vector3::new(0.05, -0.03, 0.12),
-            Vector3::new(0.3, -0.2, 0.4 + rng.random_range(-0.2..0.2)),
-        );
-        let anchor_from_target = Isometry3::new(
-            Vector3::new(0.6, 0.1 + rng.random_range(-0.1..0.1), -0.2),
-            Vector3::new(2.9, 0.3, -0.2),
-        );
-        let mut samples = Vec::new();
-        let mut observations = Vec::new();
-        while samples.len() < 15 {
-            let camera_from_target = view(rng, &camera, &points);
-            // anchor_from_target = anchor_from_mount * X * camera_from_target.
-            let anchor_from_mount =
-                anchor_from_target * camera_from_target.inverse() * mount_from_camera.inverse();
-            let base_from_tool = match setup {
-                Setup::EyeInHand => anchor_from_mount,
-                Setup::EyeToHand => anchor_from_mount.inverse(),
-            };
-            let pixels: Vec<Point2<f64>> = points
-                .iter()
-                .map(|p| {
-                    camera.project(&(camera_from_target * p)).unwrap()
-                        + Vector2::new(gaussian(rng, 0.2), gaussian(rng, 0.2))
-                })
-                .collect();
-            let c = Correspondences::new(&camera, &points, &pixels).unwrap();
-            let Ok(estimate) = estimate_pose(&camera, &c, &PoseOptions::default()) else {
-                continue;
-            };
-            let noise = Isometry3::new(
-                Vector3::from_fn(|_, _| gaussian(rng, 0.3e-3)),
-                Vector3::from_fn(|_, _| gaussian(rng, 0.05_f64.to_radians())),
-            );
-            samples.push(Sample {
-                base_from_tool: base_from_tool * noise,
-                camera_from_target: estimate.camera_from_target,
-            });
-            observations.push(TargetObservation {
-                target_points: points.clone(),
-                pixels,
-            });
-        }
-        Session {
-            samples,
-            observations,
-            mount_from_camera,
-        }
-    }
+    use crate::synth::{CornerSessionSpec, RobotNoise, corner_session};
 
     fn errors(found: &Isometry3<f64>, truth: &Isometry3<f64>) -> (f64, f64) {
         (
@@ -522,21 +417,28 @@ mod tests {
     /// translation, and its predicted uncertainty is of the size of its errors.
     #[test]
     fn refinement_beats_every_classic_method() {
-        let camera = test_camera();
-        let mut rng = ChaCha8Rng::seed_from_u64(7);
         for setup in [Setup::EyeInHand, Setup::EyeToHand] {
             let mut refined = Vec::new();
             let mut classic: Vec<Vec<(f64, f64)>> = vec![Vec::new(); 5];
             let mut normalized = Vec::new();
-            for _ in 0..20 {
-                let s = session(&mut rng, setup);
+            for seed in 0..20 {
+                let s = corner_session(&CornerSessionSpec {
+                    setup,
+                    samples: 15,
+                    pixel_noise_px: 0.2,
+                    robot_noise: RobotNoise {
+                        rotation_rad: 0.05_f64.to_radians(),
+                        translation_m: 0.3e-3,
+                    },
+                    seed,
+                });
                 for (errors_of, &method) in classic.iter_mut().zip(&Method::ALL[..5]) {
                     let c = calibrate(setup, &s.samples, method).unwrap();
                     errors_of.push(errors(c.hand_eye.mount_from_camera(), &s.mount_from_camera));
                 }
                 let start = calibrate(setup, &s.samples, Method::Daniilidis).unwrap();
                 let r = refine(
-                    &camera,
+                    &s.camera,
                     &s.samples,
                     &s.observations,
                     &start.hand_eye,

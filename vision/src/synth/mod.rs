@@ -1,13 +1,15 @@
 //! Synthetic scenes with exact ground truth: a chessboard or ChArUco target rendered through a
 //! camera model (anti-aliased, with defocus, noise, vignetting, uneven light and a
 //! cluttered background), stereo rigs and robot-arm hand-eye sessions with bad frames
-//! on request, and a saddle-point fit that measures rendered corners.
+//! on request, hand-eye sessions as detected corners without rendering (for noise
+//! sweeps), and a saddle-point fit that measures rendered corners.
 //!
 //! Everything is seeded (ChaCha8 for the scene, SplitMix64 per image row for sensor
 //! noise): the same spec gives the same bytes.
 
 mod background;
 mod board;
+mod corner_session;
 mod photometry;
 mod poses;
 mod rays;
@@ -18,6 +20,7 @@ mod truth;
 
 pub use background::Background;
 pub use board::{CharucoMarkers, Chessboard};
+pub use corner_session::{CornerSession, CornerSessionSpec, corner_session};
 pub use photometry::Photometry;
 pub use poses::{Coverage, PoseRanges, PoseSampler};
 pub use render::{PixelFormat, Renderer, Shot};
