@@ -17,6 +17,7 @@ use stereocal_msgs::RosMessage;
 use stereocal_msgs::atomic_file;
 use stereocal_msgs::cdr;
 use stereocal_msgs::geometry_msgs::PoseStamped;
+use stereocal_msgs::tf2_msgs::TFMessage;
 use stereocal_rosbag::{BagMessage, BagReader, TopicFilter};
 use stereocal_vision::board::PatternArgs;
 use stereocal_vision::camera::CameraModel;
@@ -27,10 +28,10 @@ use super::calibrate::CharucoArgs;
 use super::pose::FrameInput;
 use crate::convert::isometry_from_pose_msg;
 use crate::handeye::page::html;
-use crate::handeye::pairing::RobotTrack;
 use crate::handeye::report::{FramesRecord, HandEyeReport, RejectedRecord, solve, with_refinement};
 use crate::pose::record::seconds;
 use crate::pose::stage::PoseStage;
+use crate::tf_buffer::{PoseTrack, TfBuffer};
 
 /// Where the camera is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -85,9 +86,18 @@ pub struct HandEyeArgs {
     #[command(flatten)]
     pub charuco: CharucoArgs,
     /// Topic of the robot's tool poses in its base frame (geometry_msgs/PoseStamped).
-    #[arg(long = "robot-pose-topic")]
-    pub robot_pose_topic: String,
-    /// The robot's tool frame, for the report (PoseStamped does not name it).
+    #[arg(
+        long = "robot-pose-topic",
+        conflicts_with = "tf",
+        required_unless_present = "tf"
+    )]
+    pub robot_pose_topic: Option<String>,
+    /// The robot's poses from the bag's `/tf` and `/tf_static` instead: `BASE:TOOL`,
+    /// the frames whose transform `base_from_tool` is looked up at each stamp.
+    #[arg(long)]
+    pub tf: Option<String>,
+    /// The robot's tool frame, for the report when the poses come from a topic
+    /// (PoseStamped does not name it).
     #[arg(long = "tool-frame", default_value = "tool")]
     pub tool_frame: String,
     /// A target pose is paired only with robot poses this close on both sides of its
@@ -159,7 +169,8 @@ impl HandEyeArgs {
             size: None,
             square: None,
             charuco: CharucoArgs::default(),
-            robot_pose_topic: robot_pose_topic.to_owned(),
+            robot_pose_topic: Some(robot_pose_topic.to_owned()),
+            tf: None,
             tool_frame: "tool".to_owned(),
             max_time_difference: 0.02,
             pixel_noise: 0.2,
@@ -209,10 +220,110 @@ struct TargetPose {
     observation: Option<(TargetObservation, CameraModel)>,
 }
 
+/// Where the robot's poses come from, and what has been read of them.
+enum Robot {
+    /// A PoseStamped topic.
+    Topic {
+        topic: String,
+        poses: Vec<(f64, Isometry3<f64>)>,
+    },
+    /// `/tf` and `/tf_static`, looked up from `base` to `tool`.
+    Tf {
+        buffer: TfBuffer,
+        base: String,
+        tool: String,
+    },
+}
+
+impl Robot {
+    fn new(args: &HandEyeArgs) -> anyhow::Result<Self> {
+        match (&args.robot_pose_topic, &args.tf) {
+            (Some(topic), None) => Ok(Self::Topic {
+                topic: topic.clone(),
+                poses: Vec::new(),
+            }),
+            (None, Some(frames)) => match frames.split_once(':') {
+                Some((base, tool)) if !base.is_empty() && !tool.is_empty() => Ok(Self::Tf {
+                    buffer: TfBuffer::default(),
+                    base: base.to_owned(),
+                    tool: tool.to_owned(),
+                }),
+                _ => bail!("--tf {frames}: expected BASE:TOOL, two frame names"),
+            },
+            _ => bail!("give --robot-pose-topic or --tf, one of them"),
+        }
+    }
+
+    /// The topics to read.
+    fn topics(&self) -> Vec<&str> {
+        match self {
+            Self::Topic { topic, .. } => vec![topic.as_str()],
+            Self::Tf { .. } => vec!["/tf", "/tf_static"],
+        }
+    }
+
+    /// Keeps what a message of the robot's topics says; returns the frame of a pose
+    /// read from a topic (the base frame).
+    fn read(&mut self, message: &BagMessage) -> Option<String> {
+        match self {
+            Self::Topic { topic, poses } if *message.topic == *topic => {
+                let (stamp, base_from_tool, frame) = pose_of(message)?;
+                poses.push((stamp, base_from_tool));
+                Some(frame)
+            }
+            Self::Tf { buffer, .. } if matches!(&*message.topic, "/tf" | "/tf_static") => {
+                let is_static = &*message.topic == "/tf_static";
+                match cdr::from_bytes::<TFMessage>(&message.data) {
+                    Ok(tf) => {
+                        for t in &tf.transforms {
+                            if let Err(e) = buffer.insert(t, is_static) {
+                                eprintln!("skipped a transform on {}: {e}", message.topic);
+                            }
+                        }
+                    }
+                    Err(e) => eprintln!(
+                        "skipped an undecodable {} message at log time {} ns: {e}",
+                        message.topic, message.log_time_ns
+                    ),
+                }
+                None
+            }
+            _ => None,
+        }
+    }
+
+    /// `base_from_tool` at each stamp: interpolated from the topic's poses or looked up
+    /// in TF, within `max_gap` seconds on both sides.
+    fn into_lookup(
+        self,
+        max_gap: f64,
+    ) -> anyhow::Result<Box<dyn Fn(f64) -> Result<Isometry3<f64>, String>>> {
+        Ok(match self {
+            Self::Topic { topic, poses } => {
+                if poses.is_empty() {
+                    bail!("no robot pose on {topic}");
+                }
+                let track = PoseTrack::new(poses);
+                Box::new(move |stamp| track.at(stamp, max_gap))
+            }
+            Self::Tf { buffer, base, tool } => {
+                buffer
+                    .connects(&base, &tool)
+                    .with_context(|| format!("--tf {base}:{tool}"))?;
+                Box::new(move |stamp| {
+                    buffer
+                        .lookup(&base, &tool, stamp, max_gap)
+                        .map_err(|e| e.to_string())
+                })
+            }
+        })
+    }
+}
+
 /// What the bag holds for the calibration.
 struct Gathered {
     targets: Vec<TargetPose>,
-    robot: Vec<(f64, Isometry3<f64>)>,
+    robot: Robot,
     unpaired: Vec<RejectedRecord>,
     frames: FramesRecord,
 }
@@ -228,7 +339,9 @@ pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
     let refine_options = args.refine_options()?;
     let reader = BagReader::open(&args.bag)
         .with_context(|| format!("opening the bag {}", args.bag.display()))?;
-    check_pose_topic(&reader, "--robot-pose-topic", &args.robot_pose_topic)?;
+    if let Some(topic) = &args.robot_pose_topic {
+        check_pose_topic(&reader, "--robot-pose-topic", topic)?;
+    }
     let mut gathered = match (&args.target_pose_topic, &args.image_topic) {
         (Some(topic), None) => {
             check_pose_topic(&reader, "--target-pose-topic", topic)?;
@@ -244,14 +357,11 @@ pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
             gathered.unpaired.len()
         );
     }
-    if gathered.robot.is_empty() {
-        bail!("no robot pose on {}", args.robot_pose_topic);
-    }
-    let track = RobotTrack::new(std::mem::take(&mut gathered.robot));
+    let robot_at = gathered.robot.into_lookup(args.max_time_difference)?;
     let mut stamped = Vec::new();
     let mut observations = Vec::new();
     for target in gathered.targets {
-        match track.at(target.stamp, args.max_time_difference) {
+        match robot_at(target.stamp) {
             Ok(base_from_tool) => {
                 stamped.push((
                     target.stamp,
@@ -355,39 +465,47 @@ fn pose_of(message: &BagMessage) -> Option<(f64, Isometry3<f64>, String)> {
     }
 }
 
-fn empty_gathered(args: &HandEyeArgs) -> Gathered {
-    Gathered {
+fn empty_gathered(args: &HandEyeArgs) -> anyhow::Result<Gathered> {
+    let robot = Robot::new(args)?;
+    let (base, tool) = match &robot {
+        Robot::Tf { base, tool, .. } => (base.clone(), tool.clone()),
+        Robot::Topic { .. } => (String::new(), args.tool_frame.clone()),
+    };
+    Ok(Gathered {
         targets: Vec::new(),
-        robot: Vec::new(),
+        robot,
         unpaired: Vec::new(),
         frames: FramesRecord {
-            base: String::new(),
-            tool: args.tool_frame.clone(),
+            base,
+            tool,
             camera: String::new(),
         },
-    }
+    })
 }
 
-/// Keeps a robot pose message.
+/// Keeps what a message of the robot's topics says.
 fn gather_robot(gathered: &mut Gathered, message: &BagMessage) {
-    if let Some((stamp, base_from_tool, frame)) = pose_of(message) {
-        gathered.robot.push((stamp, base_from_tool));
-        if gathered.frames.base.is_empty() {
-            gathered.frames.base = frame;
-        }
+    if let Some(frame) = gathered.robot.read(message)
+        && gathered.frames.base.is_empty()
+    {
+        gathered.frames.base = frame;
     }
 }
 
 /// The target poses of a topic of poses already measured, and the robot poses.
 fn read_poses(reader: &BagReader, args: &HandEyeArgs, topic: &str) -> anyhow::Result<Gathered> {
-    let mut gathered = empty_gathered(args);
-    let filter = TopicFilter::only([topic, args.robot_pose_topic.as_str()]);
+    let mut gathered = empty_gathered(args)?;
+    let mut topics = gathered.robot.topics();
+    topics.push(topic);
+    let filter = TopicFilter::only(topics.into_iter().map(str::to_owned).collect::<Vec<_>>());
     for message in reader.messages(&filter) {
         let message = message.context("reading the bag")?;
-        if *message.topic == args.robot_pose_topic {
+        if *message.topic == *topic {
+            if let Some((stamp, camera_from_target, frame)) = pose_of(&message) {
+                targets_push(&mut gathered, stamp, camera_from_target, None, frame);
+            }
+        } else {
             gather_robot(&mut gathered, &message);
-        } else if let Some((stamp, camera_from_target, frame)) = pose_of(&message) {
-            targets_push(&mut gathered, stamp, camera_from_target, None, frame);
         }
     }
     Ok(gathered)
@@ -430,15 +548,13 @@ fn find_poses(
     .target()?;
     let stage = PoseStage::new(target, PoseOptions::default(), false)?;
     let input = FrameInput::open(reader, image_topic, args.camera_info.as_deref())?;
-    let gathered = std::cell::RefCell::new(empty_gathered(args));
+    let gathered = std::cell::RefCell::new(empty_gathered(args)?);
     let damage = input.walk(
         reader,
         &stage,
         &ProgressBar::hidden(),
         |message| {
-            if *message.topic == args.robot_pose_topic {
-                gather_robot(&mut gathered.borrow_mut(), message);
-            }
+            gather_robot(&mut gathered.borrow_mut(), message);
             Ok(())
         },
         |frame| {

@@ -1,8 +1,8 @@
 //! Hand-eye calibration of a recorded or live session: robot poses paired with target
-//! poses by stamp ([`pairing`]), every method of `vision::handeye` run on the pairs, and
+//! poses by stamp (through [`crate::tf_buffer`]), every method of `vision::handeye` run
+//! on the pairs, and
 //! the result as one serializable report ([`report`]) that `stereocal handeye --json`
 //! prints, `handeye.yaml` holds and `report.html` ([`page`]) shows.
 
 pub mod page;
-pub mod pairing;
 pub mod report;

@@ -185,6 +185,44 @@ fn refines_on_the_corners_when_given_the_images() {
     assert!(!page.contains("<script") && !page.contains("http"));
 }
 
+/// The robot's poses from the bag's `/tf` instead of its pose topic: the same result;
+/// frames TF does not connect are refused by name.
+#[test]
+fn takes_the_robot_poses_from_tf() {
+    let (dir, _, posed) = posed_session(SceneArg::HandeyeInHand, 85, 8);
+    let from_topic = handeye_bag(&args(
+        posed.clone(),
+        SetupArg::EyeInHand,
+        dir.path().join("topic"),
+    ))
+    .unwrap();
+    let tf_args = |frames: &str, out: &str| HandEyeArgs {
+        robot_pose_topic: None,
+        tf: Some(frames.to_owned()),
+        ..args(posed.clone(), SetupArg::EyeInHand, dir.path().join(out))
+    };
+    let from_tf = handeye_bag(&tf_args("base:tool", "tf")).unwrap();
+    assert_eq!(from_tf.results, from_topic.results);
+    assert_eq!(
+        (from_tf.frames.base.as_str(), from_tf.frames.tool.as_str()),
+        ("base", "tool")
+    );
+
+    let error = format!(
+        "{:#}",
+        handeye_bag(&tf_args("base:gripper", "bad")).unwrap_err()
+    );
+    assert!(error.contains("unknown frame \"gripper\""), "{error}");
+    // stereocal pose put camera -> target on /tf: a tree of its own.
+    let error = format!(
+        "{:#}",
+        handeye_bag(&tf_args("base:target", "bad")).unwrap_err()
+    );
+    assert!(error.contains("no path from base to target"), "{error}");
+    let error = format!("{:#}", handeye_bag(&tf_args("base", "bad")).unwrap_err());
+    assert!(error.contains("expected BASE:TOOL"), "{error}");
+}
+
 #[test]
 fn refuses_bad_arguments_and_too_few_samples() {
     let (dir, _, posed) = posed_session(SceneArg::HandeyeInHand, 83, 2);
@@ -197,7 +235,7 @@ fn refuses_bad_arguments_and_too_few_samples() {
     assert!(!out.join("handeye.yaml").exists());
 
     let mut wrong_topic = args(posed.clone(), SetupArg::EyeInHand, out.clone());
-    wrong_topic.robot_pose_topic = "/robot/pose".to_owned();
+    wrong_topic.robot_pose_topic = Some("/robot/pose".to_owned());
     let error = handeye_bag(&wrong_topic).unwrap_err().to_string();
     assert!(error.contains("no topic /robot/pose"), "{error}");
 
