@@ -220,6 +220,9 @@ struct TargetPose {
     observation: Option<(TargetObservation, CameraModel)>,
 }
 
+/// `base_from_tool` at a stamp (seconds), or why there is none.
+type RobotLookup = Box<dyn Fn(f64) -> Result<Isometry3<f64>, String>>;
+
 /// Where the robot's poses come from, and what has been read of them.
 enum Robot {
     /// A PoseStamped topic.
@@ -294,10 +297,7 @@ impl Robot {
 
     /// `base_from_tool` at each stamp: interpolated from the topic's poses or looked up
     /// in TF, within `max_gap` seconds on both sides.
-    fn into_lookup(
-        self,
-        max_gap: f64,
-    ) -> anyhow::Result<Box<dyn Fn(f64) -> Result<Isometry3<f64>, String>>> {
+    fn into_lookup(self, max_gap: f64) -> anyhow::Result<RobotLookup> {
         Ok(match self {
             Self::Topic { topic, poses } => {
                 if poses.is_empty() {
