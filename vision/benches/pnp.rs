@@ -11,33 +11,16 @@ use criterion::{Criterion, criterion_group, criterion_main};
 use nalgebra::{Isometry3, Point2, Point3, Translation3, UnitQuaternion, Vector2, Vector3};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use stereocal_vision::camera::{CameraModel, Distortion, DistortionModel, Intrinsics};
+use stereocal_vision::camera::CameraModel;
 use stereocal_vision::pnp::epnp::epnp;
 use stereocal_vision::pnp::ippe::ippe;
 use stereocal_vision::pnp::p3p::lambda_twist;
 use stereocal_vision::pnp::sqpnp::sqpnp;
 use stereocal_vision::pnp::{Correspondences, PoseOptions, estimate_pose, refine};
-
-fn camera() -> CameraModel {
-    CameraModel {
-        width: 1024,
-        height: 768,
-        intrinsics: Intrinsics {
-            fx: 800.0,
-            fy: 805.0,
-            cx: 515.0,
-            cy: 380.0,
-        },
-        distortion: Distortion::from_coeffs(
-            DistortionModel::PlumbBob,
-            &[-0.25, 0.08, 0.001, -0.0005, 0.0],
-        )
-        .unwrap(),
-    }
-}
+use stereocal_vision::synth::corner_session_camera;
 
 fn problem(planar: bool) -> (CameraModel, Correspondences) {
-    let camera = camera();
+    let camera = corner_session_camera();
     let mut rng = ChaCha8Rng::seed_from_u64(54);
     let points: Vec<Point3<f64>> = (0..6)
         .flat_map(|r| (0..9).map(move |c| (r, c)))

@@ -139,18 +139,5 @@ fn check_camera(camera: &CameraModel) -> Result<(), PnpError> {
 /// The distorted plumb-bob camera the solvers' tests see their problems through.
 #[cfg(test)]
 pub(crate) fn test_camera() -> CameraModel {
-    use crate::camera::{Distortion, Intrinsics};
-    CameraModel {
-        width: 1024,
-        height: 768,
-        intrinsics: Intrinsics {
-            fx: 800.0,
-            fy: 805.0,
-            cx: 515.0,
-            cy: 380.0,
-        },
-        distortion: Distortion::PlumbBob {
-            coeffs: [-0.25, 0.08, 0.001, -0.0005, 0.0],
-        },
-    }
+    crate::synth::corner_session_camera()
 }

@@ -51,7 +51,7 @@ pub struct CornerSession {
 /// again.
 pub fn corner_session(spec: &CornerSessionSpec) -> CornerSession {
     let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
-    let camera = camera();
+    let camera = corner_session_camera();
     let points = board();
     let mount_from_camera = Isometry3::new(
         Vector3::new(0.05, -0.03, 0.12),
@@ -105,7 +105,9 @@ pub fn corner_session(spec: &CornerSessionSpec) -> CornerSession {
     }
 }
 
-fn camera() -> CameraModel {
+/// The camera corner sessions are seen through: 1024x768, fx 800, fy 805, principal
+/// point (515, 380), plumb_bob D = [-0.25, 0.08, 0.001, -0.0005, 0].
+pub fn corner_session_camera() -> CameraModel {
     CameraModel {
         width: 1024,
         height: 768,

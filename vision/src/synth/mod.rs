@@ -20,7 +20,7 @@ mod truth;
 
 pub use background::Background;
 pub use board::{CharucoMarkers, Chessboard};
-pub use corner_session::{CornerSession, CornerSessionSpec, corner_session};
+pub use corner_session::{CornerSession, CornerSessionSpec, corner_session, corner_session_camera};
 pub use photometry::Photometry;
 pub use poses::{Coverage, PoseRanges, PoseSampler};
 pub use render::{PixelFormat, Renderer, Shot};
