@@ -76,3 +76,28 @@ pub fn pose_with_covariance_msg(
         covariance: std::array::from_fn(|i| covariance[(i / 6, i % 6)]),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    #[test]
+    fn a_pose_message_reads_back_and_a_bad_one_is_refused() {
+        let pose = Isometry3::new(Vector3::new(0.1, -0.2, 0.3), Vector3::new(0.4, 0.5, -0.6));
+        let back = isometry_from_pose_msg(&pose_msg(&pose)).unwrap();
+        assert!((back.to_homogeneous() - pose.to_homogeneous()).norm() < 1e-15);
+
+        let mut nan = pose_msg(&pose);
+        nan.position.y = f64::NAN;
+        assert!(
+            isometry_from_pose_msg(&nan)
+                .unwrap_err()
+                .contains("non-finite")
+        );
+        let mut long = pose_msg(&pose);
+        long.orientation.w *= 2.0;
+        let error = isometry_from_pose_msg(&long).unwrap_err();
+        assert!(error.contains("not a rotation"), "{error}");
+    }
+}
