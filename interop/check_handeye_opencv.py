@@ -16,6 +16,13 @@ are given the robot's poses as they are.
   vector component and 5 mm on each translation component of camera_from_target, and
   0.001 rad and 1 mm on base_from_tool (OpenCV's magnitudes).
 
+With --stereocal BIN, also the command on bags: `stereocal synth` renders an eye-in-hand
+and an eye-to-hand session (15 frames, the robot's poses with an arm's noise), `stereocal
+pose` adds the target's poses, and `stereocal handeye --target-pose-topic ... --json`
+calibrates; the bag's target and robot poses, read independently with rosbags and paired
+by stamp, go to OpenCV, and every method of the command must give OpenCV's same
+method's numbers (within 1e-6 degree and 1e-6 mm) on the samples it kept.
+
 Exits non-zero when, on the noisy sessions:
 - a method of ours differs from OpenCV's same method by more than 1e-6 degree or
   1e-6 mm on a session where OpenCV returned a result (the same formulation must give
@@ -29,7 +36,7 @@ Prints per setup and method the median / p90 errors of both.
 
 Usage: .venv/bin/python interop/check_handeye_opencv.py
        [--example target/release/examples/handeye_solve] [--trials 200] [--exact 20]
-       [--seed 1]
+       [--seed 1] [--stereocal target/release/stereocal]
 """
 
 import argparse
@@ -41,6 +48,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from bag_images import messages
 
 REPO = Path(__file__).resolve().parent.parent
 SETUPS = ("eye-in-hand", "eye-to-hand")
@@ -151,6 +159,76 @@ def errors(found, truth):
     return float(angle), float(np.linalg.norm(found[:3, 3] - truth[:3, 3]) * 1000)
 
 
+def quaternion_matrix(q):
+    """The rotation matrix of a geometry_msgs Quaternion."""
+    x, y, z, w = q.x, q.y, q.z, q.w
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
+    ])
+
+
+def poses(bag, topic):
+    """{stamp nanoseconds: 4x4 pose} of a PoseStamped topic, read with rosbags."""
+    out = {}
+    for _, msg in messages(bag, [topic]):
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        p = msg.pose.position
+        out[stamp] = pose(quaternion_matrix(msg.pose.orientation), [p.x, p.y, p.z])
+    return out
+
+
+def run(command):
+    """stdout of `command`; exits with its stderr when it fails."""
+    done = subprocess.run([str(c) for c in command], capture_output=True, text=True)
+    if done.returncode != 0:
+        sys.exit(f"{' '.join(map(str, command))} failed ({done.returncode}):\n{done.stderr}")
+    return done.stdout
+
+
+def check_command(stereocal, failures):
+    """`stereocal handeye` on rendered sessions against OpenCV on the same poses."""
+    print("\nstereocal handeye on rendered sessions against OpenCV on the bag's poses, read by rosbags")
+    for scene, setup in (("handeye-in-hand", "eye-in-hand"), ("handeye-to-hand", "eye-to-hand")):
+        with tempfile.TemporaryDirectory() as tmp:
+            tmp = Path(tmp)
+            run([stereocal, "synth", "--scene", scene, "--out", tmp / "synth", "--frames", "15"])
+            run([stereocal, "pose", "--bag", tmp / "synth" / "bag", "--out", tmp / "posed",
+                 "--size", "9x6", "--square", "0.03"])
+            report = json.loads(run([stereocal, "handeye", "--bag", tmp / "posed", "--setup", setup,
+                                     "--target-pose-topic", "/camera/target_pose",
+                                     "--robot-pose-topic", "/robot/tool_pose",
+                                     "--out", tmp / "handeye", "--json"]))
+            targets = poses(tmp / "posed", "/camera/target_pose")
+            robot = poses(tmp / "posed", "/robot/tool_pose")
+            left_out = {round(r["stamp"] * 1e9) for r in report["samples_rejected"]}
+            samples = [(robot[stamp], target) for stamp, target in sorted(targets.items())
+                       if stamp in robot and all(abs(stamp - s) > 1000 for s in left_out)]
+            if len(samples) != report["samples"]:
+                failures.append(f"{setup}: {len(samples)} samples paired by rosbags, "
+                                f"{report['samples']} used by stereocal handeye")
+                continue
+            worst = (0.0, 0.0)
+            for method in METHODS:
+                if method not in report["results"]:
+                    failures.append(f"{setup}: stereocal handeye has no {method} result")
+                    continue
+                ours_pose = from_json(report["results"][method])
+                reference = opencv(setup, samples, method)
+                if reference is None:
+                    failures.append(f"{setup}: OpenCV {method} returned no result")
+                    continue
+                difference = errors(ours_pose, reference)
+                worst = (max(worst[0], difference[0]), max(worst[1], difference[1]))
+                if difference[0] > SAME_DEG or difference[1] > SAME_MM:
+                    failures.append(f"{setup} {method}: stereocal handeye differs from OpenCV by "
+                                    f"{difference[0]:.3g} deg, {difference[1]:.3g} mm")
+            print(f"  {setup}: {len(samples)} samples, {len(report['samples_rejected'])} left out, "
+                  f"chosen {report['chosen']}; largest difference from OpenCV over the seven "
+                  f"methods {worst[0]:.1e} deg, {worst[1]:.1e} mm")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--example", type=Path,
@@ -158,6 +236,8 @@ def main():
     parser.add_argument("--trials", type=int, default=200)
     parser.add_argument("--exact", type=int, default=20)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument("--stereocal", type=Path,
+                        help="also check the `stereocal handeye` command on rendered bags")
     args = parser.parse_args()
     if not args.example.exists():
         sys.exit(f"{args.example} not found: cargo build --release -p stereocal-vision --example handeye_solve")
@@ -210,6 +290,8 @@ def main():
             margin = np.array([SAME_DEG, SAME_MM, SAME_DEG, SAME_MM])
             if np.any(stats["ours"] > stats["opencv"] + margin):
                 failures.append(f"{setup} {method}: errors {stats['ours']} worse than OpenCV's {stats['opencv']}")
+    if args.stereocal:
+        check_command(args.stereocal, failures)
     if failures:
         print("\nFAILED:\n  " + "\n  ".join(failures[:20]))
         sys.exit(1)
