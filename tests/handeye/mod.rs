@@ -185,6 +185,40 @@ fn refines_on_the_corners_when_given_the_images() {
     assert!(!page.contains("<script") && !page.contains("http"));
 }
 
+/// A ChArUco board, found by its markers: the refined transform within three of its
+/// standard deviations of the truth, eye-to-hand.
+#[test]
+fn calibrates_with_a_charuco_board() {
+    let board = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("config/boards/charuco_10x7_40mm.yaml");
+    let target = stereocal_vision::board::Target::from_yaml_file(&board).unwrap();
+    let dir = tempfile::tempdir().expect("temp dir");
+    let synth = SynthArgs::new(SceneArg::HandeyeToHand, dir.path().join("synth"), 86, 12);
+    let truth = common::synthesize_session(&synth, Some(&target));
+    let mut args = HandEyeArgs::from_images(
+        dir.path().join("synth/bag"),
+        SetupArg::EyeToHand,
+        "/camera/image_raw",
+        (10, 7, 0.04),
+        "/robot/tool_pose",
+        dir.path().join("handeye"),
+    );
+    args.pattern = "charuco".to_owned();
+    args.charuco.marker_size = Some("0.03".to_owned());
+    args.charuco.aruco_dict = Some("DICT_5X5_100".to_owned());
+    let report = handeye_bag(&args).unwrap();
+    assert_eq!(report.chosen, "refined", "{:?}", report.warnings);
+    let (expected, _) = truth_of(&truth, SetupArg::EyeToHand);
+    let (deg, mm) = pose_error(&isometry_of(&report.results["refined"]), &expected);
+    let uncertainty = report.uncertainty.as_ref().unwrap();
+    println!("charuco refined: {deg:.4} deg, {mm:.3} mm against {uncertainty:?}");
+    assert!(
+        deg < 3.0 * uncertainty.rotation_deg && mm < 3.0 * uncertainty.translation_mm,
+        "refined: {deg} deg, {mm} mm against {uncertainty:?}"
+    );
+    assert!(report.samples >= 10, "{} samples", report.samples);
+}
+
 /// The robot's poses from the bag's `/tf` instead of its pose topic: the same result;
 /// frames TF does not connect are refused by name.
 #[test]
