@@ -2,7 +2,9 @@
 //! poses by stamp (through [`crate::tf_buffer`]), every method of `vision::handeye` run
 //! on the pairs, and
 //! the result as one serializable report ([`report`]) that `stereocal handeye --json`
-//! prints, `handeye.yaml` holds and `report.html` ([`page`]) shows.
+//! prints, `handeye.yaml` holds and `report.html` ([`page`]) shows; a live session's
+//! samples are kept on disk the moment they are taken ([`store`]).
 
 pub mod page;
 pub mod report;
+pub mod store;
