@@ -340,7 +340,9 @@ struct Gathered {
     frames: FramesRecord,
 }
 
-/// Calibrates the session in `args.bag` and writes `args.out/handeye.yaml`.
+/// Calibrates the session in `args.bag` and writes `args.out/handeye.yaml` and
+/// `args.out/report.html`. The refinement sees every sample through the camera of the
+/// first one's camera_info.
 pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
     if !(args.max_time_difference.is_finite() && args.max_time_difference >= 0.0) {
         bail!(
