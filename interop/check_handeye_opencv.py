@@ -49,6 +49,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 from bag_images import messages
+from check_pose_opencv import run
+from pose_session import rotation_of
 
 REPO = Path(__file__).resolve().parent.parent
 SETUPS = ("eye-in-hand", "eye-to-hand")
@@ -159,32 +161,14 @@ def errors(found, truth):
     return float(angle), float(np.linalg.norm(found[:3, 3] - truth[:3, 3]) * 1000)
 
 
-def quaternion_matrix(q):
-    """The rotation matrix of a geometry_msgs Quaternion."""
-    x, y, z, w = q.x, q.y, q.z, q.w
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
-
-
 def poses(bag, topic):
     """{stamp nanoseconds: 4x4 pose} of a PoseStamped topic, read with rosbags."""
     out = {}
     for _, msg in messages(bag, [topic]):
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         p = msg.pose.position
-        out[stamp] = pose(quaternion_matrix(msg.pose.orientation), [p.x, p.y, p.z])
+        out[stamp] = pose(rotation_of(msg.pose.orientation), [p.x, p.y, p.z])
     return out
-
-
-def run(command):
-    """stdout of `command`; exits with its stderr when it fails."""
-    done = subprocess.run([str(c) for c in command], capture_output=True, text=True)
-    if done.returncode != 0:
-        sys.exit(f"{' '.join(map(str, command))} failed ({done.returncode}):\n{done.stderr}")
-    return done.stdout
 
 
 def check_command(stereocal, failures):

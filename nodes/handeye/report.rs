@@ -272,15 +272,10 @@ pub fn with_refinement(
     report
 }
 
-/// The median over the samples of the larger of rotation over 0.1 degree and
-/// translation over 1 mm: one number to compare methods by.
+/// The median over the samples of [`SampleResidual::scaled`]: one number to compare
+/// methods by.
 fn score(residuals: &[SampleResidual]) -> f64 {
-    median(
-        residuals
-            .iter()
-            .map(|r| (r.rotation_rad.to_degrees() / 0.1).max(r.translation_m / 1e-3))
-            .collect(),
-    )
+    median(residuals.iter().map(SampleResidual::scaled).collect())
 }
 
 fn residuals_record(residuals: &[SampleResidual]) -> ResidualsRecord {

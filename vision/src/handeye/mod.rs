@@ -77,11 +77,11 @@ impl Setup {
         }
     }
 
-    /// `anchor_from_mount` of one sample: the robot's pose, or its inverse.
-    fn anchor_from_mount(self, sample: &Sample) -> Isometry3<f64> {
+    /// `anchor_from_mount` at a robot pose: the pose itself, or its inverse.
+    fn anchor_from_mount(self, base_from_tool: &Isometry3<f64>) -> Isometry3<f64> {
         match self {
-            Self::EyeInHand => sample.base_from_tool,
-            Self::EyeToHand => sample.base_from_tool.inverse(),
+            Self::EyeInHand => *base_from_tool,
+            Self::EyeToHand => base_from_tool.inverse(),
         }
     }
 }
@@ -216,10 +216,7 @@ impl HandEye {
     /// Where this calibration puts the target in the camera frame for a robot pose:
     /// what the camera should measure at that pose.
     pub fn predicted_camera_from_target(&self, base_from_tool: &Isometry3<f64>) -> Isometry3<f64> {
-        let anchor_from_mount = self.setup().anchor_from_mount(&Sample {
-            base_from_tool: *base_from_tool,
-            camera_from_target: Isometry3::identity(),
-        });
+        let anchor_from_mount = self.setup().anchor_from_mount(base_from_tool);
         (anchor_from_mount * self.mount_from_camera()).inverse() * self.anchor_from_target()
     }
 }
@@ -246,6 +243,14 @@ pub struct SampleResidual {
     pub rotation_rad: f64,
     /// Distance between the measured and the predicted target origin, metres.
     pub translation_m: f64,
+}
+
+impl SampleResidual {
+    /// The residual as one number, for comparing samples and methods: the larger of its
+    /// rotation over 0.1 degree and its translation over 1 mm.
+    pub fn scaled(&self) -> f64 {
+        (self.rotation_rad / (0.1 * std::f64::consts::PI / 180.0)).max(self.translation_m / 1e-3)
+    }
 }
 
 /// One method's calibration.
@@ -297,8 +302,10 @@ pub fn calibrate(
     }
     let spread = motion_spread(setup, samples);
     spread.check()?;
-    let anchor_from_mount: Vec<Isometry3<f64>> =
-        samples.iter().map(|s| setup.anchor_from_mount(s)).collect();
+    let anchor_from_mount: Vec<Isometry3<f64>> = samples
+        .iter()
+        .map(|s| setup.anchor_from_mount(&s.base_from_tool))
+        .collect();
     let camera_from_target: Vec<Isometry3<f64>> =
         samples.iter().map(|s| s.camera_from_target).collect();
     let failed = |reason: &str| HandEyeError::NoSolution {
@@ -397,6 +404,7 @@ fn isometry(rotation: &Matrix3<f64>, translation: &Vector3<f64>) -> Isometry3<f6
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::synth::gaussian;
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -414,13 +422,6 @@ mod tests {
         let angle = rng.random_range(degrees.0..degrees.1).to_radians() * sign(rng);
         let t = Vector3::from_fn(|_, _| rng.random_range(metres.0..metres.1) * sign(rng));
         Isometry3::new(t, axis * angle)
-    }
-
-    fn gaussian(rng: &mut ChaCha8Rng, sigma: f64) -> f64 {
-        // Box-Muller.
-        let u: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
-        let v: f64 = rng.random_range(0.0..1.0);
-        sigma * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
     }
 
     /// A pose moved by Gaussian noise on its rotation vector (radians) and translation
@@ -453,11 +454,7 @@ mod tests {
         let samples = (0..10)
             .map(|_| {
                 let base_from_tool = random_pose(rng, (5.0, 45.0), (0.5, 1.5));
-                let sample = Sample {
-                    base_from_tool,
-                    camera_from_target: Isometry3::identity(),
-                };
-                let anchor_from_mount = setup.anchor_from_mount(&sample);
+                let anchor_from_mount = setup.anchor_from_mount(&base_from_tool);
                 let camera_from_target =
                     (anchor_from_mount * mount_from_camera).inverse() * anchor_from_target;
                 Sample {

@@ -82,8 +82,10 @@ pub struct MotionSpread {
 
 /// The spread of the motions between `samples`.
 pub fn motion_spread(setup: Setup, samples: &[Sample]) -> MotionSpread {
-    let anchor_from_mount: Vec<Isometry3<f64>> =
-        samples.iter().map(|s| setup.anchor_from_mount(s)).collect();
+    let anchor_from_mount: Vec<Isometry3<f64>> = samples
+        .iter()
+        .map(|s| setup.anchor_from_mount(&s.base_from_tool))
+        .collect();
     let mut largest_rotation_rad: f64 = 0.0;
     let mut scatter = Matrix3::zeros();
     let mut turning = 0usize;

@@ -249,10 +249,7 @@ impl Problem<'_> {
             .iter()
             .zip(self.observations)
             .map(|(base_from_tool, observation)| {
-                let anchor_from_mount = match self.setup {
-                    Setup::EyeInHand => *base_from_tool,
-                    Setup::EyeToHand => base_from_tool.inverse(),
-                };
+                let anchor_from_mount = self.setup.anchor_from_mount(base_from_tool);
                 let camera_from_target =
                     camera_from_mount * anchor_from_mount.inverse() * state.anchor_from_target;
                 let squared: f64 = observation
@@ -283,10 +280,7 @@ impl Problem<'_> {
         let d_x = -adjoint(&camera_from_mount);
         for i in 0..n {
             let base_from_tool = &state.base_from_tool[i];
-            let anchor_from_mount = match self.setup {
-                Setup::EyeInHand => *base_from_tool,
-                Setup::EyeToHand => base_from_tool.inverse(),
-            };
+            let anchor_from_mount = self.setup.anchor_from_mount(base_from_tool);
             let camera_from_anchor = camera_from_mount * anchor_from_mount.inverse();
             let camera_from_target = camera_from_anchor * state.anchor_from_target;
             let d_w = adjoint(&camera_from_anchor);

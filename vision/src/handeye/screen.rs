@@ -14,12 +14,10 @@ const SUBSET: usize = MIN_SAMPLES + 1;
 /// Random subsets tried: with a fifth of the samples bad, the chance that none of them
 /// is clean is below 1e-9.
 const TRIALS: usize = 100;
-/// A sample is out when its residual is more than this many times the median...
-const MEDIAN_FACTOR: f64 = 4.0;
-/// ... and above this rotation (0.1 degree) or distance (1 mm): below both a sample
+/// A sample is out when its residual is more than this many times the median, and
+/// above 0.1 degree or 1 mm ([`SampleResidual::scaled`] above 1): below both a sample
 /// agrees, however good the rest.
-const ROTATION_SCALE_RAD: f64 = 0.1 * std::f64::consts::PI / 180.0;
-const TRANSLATION_SCALE_M: f64 = 1e-3;
+const MEDIAN_FACTOR: f64 = 4.0;
 
 /// A sample left out of a calibration, and why.
 #[derive(Clone, Debug, PartialEq)]
@@ -62,7 +60,7 @@ pub fn calibrate_screened(
             continue;
         };
         let residuals = residuals_of(&hypothesis.hand_eye, samples);
-        let score = median(residuals.iter().map(scaled).collect());
+        let score = median(residuals.iter().map(SampleResidual::scaled).collect());
         if best.as_ref().is_none_or(|(least, _)| score < *least) {
             best = Some((score, residuals));
         }
@@ -76,13 +74,16 @@ pub fn calibrate_screened(
     let accepted: Vec<Sample> = samples
         .iter()
         .zip(&residuals)
-        .filter(|(_, r)| scaled(r) <= (MEDIAN_FACTOR * median_score).max(1.0))
+        .filter(|(_, r)| r.scaled() <= (MEDIAN_FACTOR * median_score).max(1.0))
         .map(|(s, _)| s.clone())
         .collect();
     let (median_score, residuals) = match calibrate(setup, &accepted, Method::Park) {
         Ok(refit) => {
             let residuals = residuals_of(&refit.hand_eye, samples);
-            (median(residuals.iter().map(scaled).collect()), residuals)
+            (
+                median(residuals.iter().map(SampleResidual::scaled).collect()),
+                residuals,
+            )
         }
         Err(_) => (median_score, residuals),
     };
@@ -90,7 +91,7 @@ pub fn calibrate_screened(
     let mut kept = Vec::new();
     let mut rejected = Vec::new();
     for (index, (sample, residual)) in samples.iter().zip(&residuals).enumerate() {
-        if scaled(residual) > bound {
+        if residual.scaled() > bound {
             rejected.push(RejectedSample {
                 index,
                 reason: format!(
@@ -110,12 +111,6 @@ pub fn calibrate_screened(
 
 fn residuals_of(hand_eye: &HandEye, samples: &[Sample]) -> Vec<SampleResidual> {
     samples.iter().map(|s| hand_eye.residual(s)).collect()
-}
-
-/// A residual as one number: the larger of its rotation over 0.1 degree and its
-/// translation over 1 mm.
-fn scaled(r: &SampleResidual) -> f64 {
-    (r.rotation_rad / ROTATION_SCALE_RAD).max(r.translation_m / TRANSLATION_SCALE_M)
 }
 
 fn median(mut values: Vec<f64>) -> f64 {

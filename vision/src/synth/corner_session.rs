@@ -10,6 +10,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
 use super::RobotNoise;
+use super::gaussian;
 use crate::camera::{CameraModel, Distortion, Intrinsics};
 use crate::handeye::{Sample, Setup, TargetObservation};
 use crate::pnp::{Correspondences, PoseOptions, estimate_pose};
@@ -129,13 +130,6 @@ fn board() -> Vec<Point3<f64>> {
             (0..9).map(move |c| Point3::new(f64::from(c) * 0.03, f64::from(r) * 0.03, 0.0))
         })
         .collect()
-}
-
-fn gaussian(rng: &mut ChaCha8Rng, sigma: f64) -> f64 {
-    // Box-Muller.
-    let u: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
-    let v: f64 = rng.random_range(0.0..1.0);
-    sigma * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
 }
 
 /// A view of the board with every corner more than 20 pixels inside the image.

@@ -25,6 +25,7 @@ pub use photometry::Photometry;
 pub use poses::{Coverage, PoseRanges, PoseSampler};
 pub use render::{PixelFormat, Renderer, Shot};
 pub use saddle::{SaddleFit, saddle_point, saddle_point_through_lens};
+pub(crate) use scene::gaussian;
 pub use scene::{
     HandEye, RigLayout, RobotNoise, Scene, SceneKind, SceneSpec, StereoRig, synthetic_camera,
 };

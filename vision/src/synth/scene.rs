@@ -100,6 +100,13 @@ pub struct SceneSpec {
     pub robot_noise: RobotNoise,
 }
 
+/// A draw of zero-mean Gaussian noise of standard deviation `sigma` (Box-Muller).
+pub(crate) fn gaussian(rng: &mut ChaCha8Rng, sigma: f64) -> f64 {
+    let u: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
+    let v: f64 = rng.random_range(0.0..1.0);
+    sigma * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+}
+
 /// Gaussian noise on a robot's reported poses: a rotation vector and a translation in
 /// the tool frame, `reported = true * exp(noise)`, each component with its standard
 /// deviation.
@@ -114,14 +121,8 @@ pub struct RobotNoise {
 impl RobotNoise {
     /// One draw of the noise as a transform in the tool frame.
     pub fn sample(&self, rng: &mut ChaCha8Rng) -> Isometry3<f64> {
-        let mut gaussian = |sigma: f64| {
-            // Box-Muller.
-            let u: f64 = rng.random_range(f64::MIN_POSITIVE..1.0);
-            let v: f64 = rng.random_range(0.0..1.0);
-            sigma * (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-        };
-        let translation = Vector3::from_fn(|_, _| gaussian(self.translation_m));
-        let rotation = Vector3::from_fn(|_, _| gaussian(self.rotation_rad));
+        let translation = Vector3::from_fn(|_, _| gaussian(rng, self.translation_m));
+        let rotation = Vector3::from_fn(|_, _| gaussian(rng, self.rotation_rad));
         Isometry3::new(translation, rotation)
     }
 
