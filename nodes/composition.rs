@@ -31,10 +31,11 @@ use stereocal_runtime::shutdown::Shutdown;
 type NodeMain = fn(Vec<String>) -> anyhow::Result<()>;
 
 /// The nodes a composition can hold, by the name the file gives them.
-const NODES: [(&str, NodeMain); 3] = [
+const NODES: [(&str, NodeMain); 4] = [
     ("rectify", |args| crate::rectify::node::run(args)),
     ("calibrate", |args| crate::calibrate::node::run(args)),
     ("pose", |args| crate::pose::node::run(args)),
+    ("handeye", |args| crate::handeye::node::run(args)),
 ];
 
 /// The logger name of the composition itself.

@@ -40,6 +40,13 @@ impl PoseTrack {
         }
     }
 
+    /// Forgets the poses before `stamp` except the last of them, which a lookup at
+    /// `stamp` still needs.
+    pub fn forget_before(&mut self, stamp: f64) {
+        let before = self.poses.partition_point(|(t, _)| *t < stamp);
+        self.poses.drain(..before.saturating_sub(1));
+    }
+
     /// Number of poses.
     pub fn len(&self) -> usize {
         self.poses.len()
@@ -232,6 +239,23 @@ impl TfBuffer {
         let ancestor_from_source = ancestor_from(&source_chain, source_steps)?;
         let ancestor_from_target = ancestor_from(&target_chain, target_steps)?;
         Ok(ancestor_from_target.inverse() * ancestor_from_source)
+    }
+
+    /// Forgets the stamped poses before `stamp` (see [`PoseTrack::forget_before`]); a
+    /// live buffer calls it to keep its memory bounded.
+    pub fn forget_before(&mut self, stamp: f64) {
+        for (_, link) in self.links.values_mut() {
+            if let Link::Stamped(track) = link {
+                track.forget_before(stamp);
+            }
+        }
+    }
+
+    /// Forgets every `/tf` transform and keeps those of `/tf_static`, which are not sent
+    /// again: what a time jump back (a replay starting over) asks for.
+    pub fn forget_stamped(&mut self) {
+        self.links
+            .retain(|_, (_, link)| matches!(link, Link::Static(_)));
     }
 
     /// Refuses two frames that are unknown or in different trees; what a lookup at any

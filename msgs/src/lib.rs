@@ -20,6 +20,7 @@ pub mod sensor_msgs;
 pub mod std_msgs;
 pub mod std_srvs;
 pub mod stereo_msgs;
+pub mod stereocal_msgs;
 pub mod tf2_msgs;
 
 pub use camera_info_file::{CameraInfoFile, CameraInfoFileError};

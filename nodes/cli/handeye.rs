@@ -21,23 +21,18 @@ use stereocal_msgs::tf2_msgs::TFMessage;
 use stereocal_rosbag::{BagMessage, BagReader, TopicFilter};
 use stereocal_vision::board::PatternArgs;
 use stereocal_vision::camera::CameraModel;
-use stereocal_vision::handeye::{RefineOptions, Sample, Setup, TargetObservation, refine};
+use stereocal_vision::handeye::{RefineOptions, Sample, Setup, TargetObservation};
 use stereocal_vision::pnp::PoseOptions;
 
 use super::calibrate::CharucoArgs;
 use super::pose::FrameInput;
 use crate::convert::isometry_from_pose_msg;
 use crate::handeye::page::html;
-use crate::handeye::report::{FramesRecord, HandEyeReport, RejectedRecord, solve, with_refinement};
+use crate::handeye::report::{FramesRecord, HandEyeReport, RejectedRecord};
+use crate::handeye::session::{FIRST_PIXEL_NOISE_PX, SessionSample, Weights, calibrate_session};
 use crate::pose::record::seconds;
 use crate::pose::stage::PoseStage;
 use crate::tf_buffer::{PoseTrack, TfBuffer};
-
-/// The corner noise the refinement first assumes when none is given, pixels.
-const FIRST_PIXEL_NOISE_PX: f64 = 0.2;
-/// The least corner noise a measurement may set, pixels: the detector's limit on sharp
-/// images.
-const MIN_MEASURED_PIXEL_NOISE_PX: f64 = 0.01;
 
 /// Where the camera is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -190,7 +185,7 @@ impl HandEyeArgs {
         }
     }
 
-    fn refine_options(&self) -> anyhow::Result<RefineOptions> {
+    fn weights(&self) -> anyhow::Result<Weights> {
         for (option, value) in [
             (
                 "--pixel-noise",
@@ -203,10 +198,13 @@ impl HandEyeArgs {
                 bail!("{option} {value}: expected a positive number");
             }
         }
-        Ok(RefineOptions {
-            pixel_noise_px: self.pixel_noise.unwrap_or(FIRST_PIXEL_NOISE_PX),
-            robot_rotation_noise_rad: self.robot_rotation_noise.to_radians(),
-            robot_translation_noise_m: self.robot_translation_noise * 1e-3,
+        Ok(Weights {
+            refine: RefineOptions {
+                pixel_noise_px: self.pixel_noise.unwrap_or(FIRST_PIXEL_NOISE_PX),
+                robot_rotation_noise_rad: self.robot_rotation_noise.to_radians(),
+                robot_translation_noise_m: self.robot_translation_noise * 1e-3,
+            },
+            measure_pixel_noise: self.pixel_noise.is_none(),
         })
     }
 }
@@ -350,7 +348,7 @@ pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
             args.max_time_difference
         );
     }
-    let refine_options = args.refine_options()?;
+    let weights = args.weights()?;
     let reader = BagReader::open(&args.bag)
         .with_context(|| format!("opening the bag {}", args.bag.display()))?;
     if let Some(topic) = &args.robot_pose_topic {
@@ -372,75 +370,32 @@ pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
         );
     }
     let robot_at = gathered.robot.into_lookup(args.max_time_difference)?;
-    let mut stamped = Vec::new();
-    let mut observations = Vec::new();
+    let mut samples = Vec::new();
     for target in gathered.targets {
         match robot_at(target.stamp) {
-            Ok(base_from_tool) => {
-                stamped.push((
-                    target.stamp,
-                    Sample {
-                        base_from_tool,
-                        camera_from_target: target.camera_from_target,
-                    },
-                ));
-                observations.push(target.observation);
-            }
+            Ok(base_from_tool) => samples.push(SessionSample {
+                stamp: target.stamp,
+                sample: Sample {
+                    base_from_tool,
+                    camera_from_target: target.camera_from_target,
+                },
+                observation: target.observation,
+            }),
             Err(reason) => gathered.unpaired.push(RejectedRecord {
                 stamp: target.stamp,
                 reason,
             }),
         }
     }
-    let solved = solve(
+    let report = calibrate_session(
         args.setup.into(),
         gathered.frames,
-        &stamped,
+        &samples,
         gathered.unpaired,
+        &weights,
     )
-    .with_context(|| format!("hand-eye calibration of {}", args.bag.display()))?;
-    let mut report = solved.report;
-    let kept: Vec<(f64, Sample)> = solved.kept.iter().map(|&i| stamped[i].clone()).collect();
-    let kept_samples: Vec<Sample> = kept.iter().map(|(_, s)| s.clone()).collect();
-    let kept_observations: Option<Vec<(TargetObservation, CameraModel)>> = solved
-        .kept
-        .iter()
-        .map(|&i| observations[i].clone())
-        .collect();
-    if let Some(kept_observations) = kept_observations
-        && let Some((_, camera)) = kept_observations.first()
-    {
-        let camera = camera.clone();
-        let observations: Vec<TargetObservation> =
-            kept_observations.into_iter().map(|(o, _)| o).collect();
-        let refined = refine(
-            &camera,
-            &kept_samples,
-            &observations,
-            &solved.hand_eye,
-            &refine_options,
-        )
-        .and_then(|first| match args.pixel_noise {
-            Some(_) => Ok(first),
-            // Weigh the corners by the noise they show: per coordinate, the RMS point
-            // error over the square root of 2.
-            None => refine(
-                &camera,
-                &kept_samples,
-                &observations,
-                &first.hand_eye,
-                &RefineOptions {
-                    pixel_noise_px: (first.rms_px / std::f64::consts::SQRT_2)
-                        .max(MIN_MEASURED_PIXEL_NOISE_PX),
-                    ..refine_options.clone()
-                },
-            ),
-        });
-        match refined {
-            Ok(refined) => report = with_refinement(report, &kept, &refined),
-            Err(e) => report.warnings.push(format!("refined: {e}")),
-        }
-    }
+    .with_context(|| format!("hand-eye calibration of {}", args.bag.display()))?
+    .report;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let path = args.out.join("handeye.yaml");

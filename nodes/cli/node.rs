@@ -28,6 +28,14 @@ pub enum NodeCommand {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         args: Vec<String>,
     },
+    /// The hand-eye node: target poses (`image` + `camera_info`, or `target_pose`) and
+    /// robot poses (`/tf`, or `robot_pose`) in, samples on `~/take_sample`, the result
+    /// on `~/compute` to `/tf_static`.
+    Handeye {
+        /// ROS arguments, as for the `handeye_node` executable.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
     /// Several nodes in this process, as a composition file lists them, like a
     /// component container.
     Compose {
@@ -45,6 +53,7 @@ pub fn run(command: NodeCommand) -> anyhow::Result<()> {
         NodeCommand::Rectify { args } => crate::rectify::node::run(args),
         NodeCommand::Calibrate { args } => crate::calibrate::node::run(args),
         NodeCommand::Pose { args } => crate::pose::node::run(args),
+        NodeCommand::Handeye { args } => crate::handeye::node::run(args),
         NodeCommand::Compose { file, args } => crate::composition::run(&file, &args),
     }
 }

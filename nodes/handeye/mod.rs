@@ -5,6 +5,12 @@
 //! prints, `handeye.yaml` holds and `report.html` ([`page`]) shows; a live session's
 //! samples are kept on disk the moment they are taken ([`store`]).
 
+pub mod node;
 pub mod page;
 pub mod report;
+pub mod robot;
+pub mod session;
+pub mod settings;
+pub mod status;
 pub mod store;
+pub mod worker;

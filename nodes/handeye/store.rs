@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 use stereocal_msgs::atomic_file;
+use stereocal_msgs::sensor_msgs::CameraInfo;
 use thiserror::Error;
 
 use crate::pose::record::TransformRecord;
@@ -24,6 +25,8 @@ pub struct StoredCorners {
     pub target_points: Vec<[f64; 3]>,
     /// Their pixels, pixel centres at integer coordinates.
     pub pixels: Vec<[f64; 2]>,
+    /// The calibration of the camera whose pixels they are.
+    pub camera_info: CameraInfo,
 }
 
 /// One sample as stored.
@@ -214,6 +217,11 @@ mod tests {
             corners: Some(StoredCorners {
                 target_points: vec![[0.0, 0.0, 0.0], [0.03, 0.0, 0.0]],
                 pixels: vec![[512.5, 380.25], [540.0, 381.0]],
+                camera_info: CameraInfo {
+                    width: 1024,
+                    height: 768,
+                    ..CameraInfo::default()
+                },
             }),
         }
     }

@@ -139,24 +139,7 @@ impl PoseStage {
 
     /// The camera model a frame with this camera_info is seen through.
     pub fn camera_model(&self, info: &CameraInfo) -> Result<CameraModel, PoseRejection> {
-        let calibrated = calibrated_camera_from_info(info)?;
-        if !self.image_is_rectified {
-            return Ok(calibrated.model);
-        }
-        // A rectified image is a distortion-free pinhole image through P's left 3x3;
-        // the pose is in the camera's own rectified frame (the image's frame), so P's
-        // stereo baseline term is not applied.
-        let p = calibrated.projection;
-        Ok(CameraModel {
-            intrinsics: Intrinsics {
-                fx: p[(0, 0)],
-                fy: p[(1, 1)],
-                cx: p[(0, 2)],
-                cy: p[(1, 2)],
-            },
-            distortion: Distortion::none(),
-            ..calibrated.model
-        })
+        camera_model_of(info, self.image_is_rectified)
     }
 
     /// The pose of the target in one frame, with the time each part took. The
@@ -227,6 +210,32 @@ impl PoseStage {
             ),
         }
     }
+}
+
+/// The camera model an image with this camera_info is seen through: through `K` and `D`
+/// for a raw image, through `P` for a rectified one (`image_is_rectified`).
+pub fn camera_model_of(
+    info: &CameraInfo,
+    image_is_rectified: bool,
+) -> Result<CameraModel, PoseRejection> {
+    let calibrated = calibrated_camera_from_info(info)?;
+    if !image_is_rectified {
+        return Ok(calibrated.model);
+    }
+    // A rectified image is a distortion-free pinhole image through P's left 3x3; the
+    // pose is in the camera's own rectified frame (the image's frame), so P's stereo
+    // baseline term is not applied.
+    let p = calibrated.projection;
+    Ok(CameraModel {
+        intrinsics: Intrinsics {
+            fx: p[(0, 0)],
+            fy: p[(1, 1)],
+            cx: p[(0, 2)],
+            cy: p[(1, 2)],
+        },
+        distortion: Distortion::none(),
+        ..calibrated.model
+    })
 }
 
 fn check_size(image: &Image, camera: &CameraModel) -> Result<(), PoseRejection> {
