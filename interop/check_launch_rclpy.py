@@ -9,7 +9,7 @@ names and namespaces, the topics they subscribe and publish, the services they c
 and the parameter values from the params file and the launch arguments. Every node must
 then stop cleanly on SIGTERM, as it does when `ros2 launch` is interrupted.
 
-Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin pose_node
+Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin pose_node --bin handeye_node
 --bin stereocal`):
     .venv/bin/python interop/check_launch_rclpy.py
 """
@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parent.parent
 #: values prove the file reached the nodes.
 RECTIFY_PARAMS = {"interpolation": 2, "queue_size": 3}
 #: Launch arguments that only say where an executable is (left out of the check names).
-EXECUTABLES = {"rectify_node", "calibrate_node", "pose_node", "stereocal", "params_file"}
+EXECUTABLES = {"rectify_node", "calibrate_node", "pose_node", "handeye_node", "stereocal", "params_file"}
 #: The params file launch/pose.launch.py gives pose_node by default.
 POSE_PARAMS_FILE = ROOT / "config" / "pose_node.yaml"
 
@@ -67,7 +67,24 @@ def pose_graph(camera, image, values):
     }
 
 
-def cases(rectify_node, calibrate_node, pose_node, stereocal, rectify_params):
+def handeye_graph(camera, robot_pose, values):
+    """handeye_node as launch/handeye.launch.py starts it: the camera's images, the
+    robot's poses from /tf or from `robot_pose` when given, its status and /tf_static."""
+    robot = ({robot_pose: "geometry_msgs/msg/PoseStamped"} if robot_pose else
+             {"/tf": "tf2_msgs/msg/TFMessage", "/tf_static": "tf2_msgs/msg/TFMessage"})
+    return {
+        "/handeye_node": (
+            {f"{camera}/image_raw": "sensor_msgs/msg/Image",
+             f"{camera}/camera_info": "sensor_msgs/msg/CameraInfo", **robot},
+            {"/handeye_node/status": "std_msgs/msg/String",
+             "/tf_static": "tf2_msgs/msg/TFMessage"},
+            {},
+            values,
+        )
+    }
+
+
+def cases(rectify_node, calibrate_node, pose_node, handeye_node, stereocal, rectify_params):
     """(launch file, launch arguments, processes started, {node: (subscribed,
     published, called services, parameter values)}) for every launch file, as its
     documentation describes it."""
@@ -129,6 +146,16 @@ def cases(rectify_node, calibrate_node, pose_node, stereocal, rectify_params):
          pose_graph("/my_camera", "image_rect", {
              **pose_file_parameters(), "size": "8x6", "square": 0.108, "target_frame": "board",
              "image_is_rectified": True})),
+        ("handeye.launch.py", {"handeye_node": handeye_node}, ["/handeye_node"],
+         handeye_graph("/camera", None, {
+             "setup": "eye_in_hand", "robot_source": "tf", "base_frame": "base_link",
+             "tool_frame": "tool0", "size": "9x6", "square": 0.025})),
+        ("handeye.launch.py", {"handeye_node": handeye_node, "setup": "eye_to_hand",
+                               "camera": "/scene_camera", "robot_source": "topic",
+                               "size": "8x6", "square": "0.03"},
+         ["/handeye_node"],
+         handeye_graph("/scene_camera", "/robot/tool_pose", {
+             "setup": "eye_to_hand", "robot_source": "topic", "size": "8x6", "square": 0.03})),
     ]
 
 
@@ -207,19 +234,21 @@ def main():
     parser.add_argument("--rectify-node", default=str(ROOT / "target" / "debug" / "rectify_node"))
     parser.add_argument("--calibrate-node", default=str(ROOT / "target" / "debug" / "calibrate_node"))
     parser.add_argument("--pose-node", default=str(ROOT / "target" / "debug" / "pose_node"))
+    parser.add_argument("--handeye-node", default=str(ROOT / "target" / "debug" / "handeye_node"))
     parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
     args = parser.parse_args()
-    for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.stereocal):
+    for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.handeye_node,
+                   args.stereocal):
         if not Path(binary).exists():
             sys.exit(f"{binary} not found; build it with `cargo build --bin rectify_node "
-                     "--bin calibrate_node --bin pose_node --bin stereocal`")
+                     "--bin calibrate_node --bin pose_node --bin handeye_node --bin stereocal`")
     checks = Checks()
     with tempfile.TemporaryDirectory() as workdir:
         # calibrate_node keeps its samples under $ROS_HOME: a folder of this check's own.
         os.environ["ROS_HOME"] = workdir
         for launch_file, arguments, processes, expected in cases(
-                args.rectify_node, args.calibrate_node, args.pose_node, args.stereocal,
-                rectify_params_file(workdir)):
+                args.rectify_node, args.calibrate_node, args.pose_node, args.handeye_node,
+                args.stereocal, rectify_params_file(workdir)):
             check_case(checks, launch_file, arguments, processes, expected, workdir)
     return checks.table()
 

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
+use nalgebra::Isometry3;
 use stereocal_msgs::atomic_file;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
@@ -18,16 +19,18 @@ use stereocal_vision::rectify::{
     StereoRectification, StereoRectifyOptions, fisheye_stereo_rectify, stereo_rectify,
 };
 use stereocal_vision::synth::{
-    Chessboard, GroundTruth, PixelFormat, RigLayout, RobotNoise, Scene, SceneKind, SceneSpec,
-    StampRecord,
+    Chessboard, GroundTruth, PixelFormat, RigLayout, RobotMotion, RobotNoise, Scene, SceneKind,
+    SceneSpec, StampRecord,
 };
 
 use crate::convert::{
     CalibratedCamera, Encoding, info_from_calibrated, info_from_raw_camera, msg_from_image,
     pose_msg, transform_msg,
 };
-use stereocal_rosbag::{BagWriter, OfferedQos, WriterOptions};
+use stereocal_rosbag::{BagWriter, OfferedQos, TopicId, WriterOptions};
 
+/// Largest robot stamp offset accepted, seconds.
+const MAX_STAMP_OFFSET_S: f64 = 1000.0;
 /// Frame of the robot's base in hand-eye bags.
 const BASE_FRAME: &str = "base";
 /// Frame of the robot's tool in hand-eye bags.
@@ -103,6 +106,14 @@ pub struct SynthArgs {
     /// each axis, millimetres.
     #[arg(long = "robot-translation-noise", default_value_t = 0.3)]
     pub robot_translation_noise: f64,
+    /// Hand-eye sessions: the robot's stamps run this many seconds ahead of the
+    /// camera's (a clock offset between the two streams; may be negative).
+    #[arg(
+        long = "robot-stamp-offset",
+        default_value_t = 0.0,
+        allow_hyphen_values = true
+    )]
+    pub robot_stamp_offset: f64,
 }
 
 /// Arguments of the `stereocal synth` command: the scene, and the target it shows.
@@ -163,6 +174,7 @@ impl SynthArgs {
             vertical: false,
             robot_rotation_noise: 0.05,
             robot_translation_noise: 0.3,
+            robot_stamp_offset: 0.0,
         }
     }
 
@@ -225,6 +237,12 @@ pub fn run_with_target(args: &SynthArgs, target: Option<&Target>) -> anyhow::Res
             bail!("{option} {value}: expected a number of at least 0");
         }
     }
+    if !(args.robot_stamp_offset.abs() <= MAX_STAMP_OFFSET_S) {
+        bail!(
+            "--robot-stamp-offset {}: expected seconds between -{MAX_STAMP_OFFSET_S} and {MAX_STAMP_OFFSET_S}",
+            args.robot_stamp_offset
+        );
+    }
     let mut spec = args.spec();
     if let Some(target) = target {
         spec.board = Chessboard::from_target(target).context("cannot render the target")?;
@@ -232,7 +250,7 @@ pub fn run_with_target(args: &SynthArgs, target: Option<&Target>) -> anyhow::Res
     let scene = Scene::generate(&spec).context("cannot make the scene")?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
-    write_bag(&scene, &args.out.join("bag"))?;
+    write_bag(&scene, &args.out.join("bag"), args.robot_stamp_offset)?;
     write_json_atomically(&args.out.join("ground_truth.json"), scene.truth())?;
     if !spec.kind.is_hand_eye() {
         write_rectified_camera_infos(&scene, &args.out)?;
@@ -256,7 +274,28 @@ fn camera_topics(kind: SceneKind, camera: &str) -> (String, String) {
     (format!("{ns}/image_raw"), format!("{ns}/camera_info"))
 }
 
-fn write_bag(scene: &Scene, path: &Path) -> anyhow::Result<()> {
+/// A message time in nanoseconds from a time in seconds.
+fn nanos(seconds: f64) -> anyhow::Result<u64> {
+    if seconds.is_finite() && seconds >= 0.0 {
+        Ok((seconds * 1e9).round() as u64)
+    } else {
+        bail!("time {seconds} s before 1970")
+    }
+}
+
+/// A ROS stamp from a time in seconds (at least 0).
+fn stamp_of(seconds: f64) -> anyhow::Result<Time> {
+    let ns = nanos(seconds)?;
+    Ok(Time {
+        sec: i32::try_from(ns / 1_000_000_000).context("stamp beyond 2038")?,
+        nanosec: (ns % 1_000_000_000) as u32,
+    })
+}
+
+/// Renders the scene's frames into a bag at `path`; a hand-eye scene's robot poses
+/// follow [`RobotMotion::DEFAULT`], stamped `robot_stamp_offset` seconds ahead of the
+/// camera.
+fn write_bag(scene: &Scene, path: &Path, robot_stamp_offset: f64) -> anyhow::Result<()> {
     let truth = scene.truth();
     let kind = scene.spec().kind;
     let options = WriterOptions {
@@ -303,9 +342,32 @@ fn write_bag(scene: &Scene, path: &Path) -> anyhow::Result<()> {
     if let Ok(style) = ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed}") {
         progress.set_style(style);
     }
+    // The robot publishes the poses it reports, not the true ones.
+    let waypoints: Vec<(f64, Isometry3<f64>)> = truth
+        .frames
+        .iter()
+        .filter_map(|frame| {
+            let reported = frame
+                .reported_base_from_tool
+                .as_ref()
+                .or(frame.base_from_tool.as_ref())?;
+            Some((stamp_seconds(&frame.stamp), reported.isometry()))
+        })
+        .collect();
+    let mut robot_poses = RobotMotion::DEFAULT
+        .stream(&waypoints)
+        .into_iter()
+        .peekable();
     for frame in &truth.frames {
         let stamp = ros_time(&frame.stamp);
+        let seconds = stamp_seconds(&frame.stamp);
         let log_time = u64::try_from(stamp.as_nanos()).context("stamp before 1970")?;
+        // The robot's poses up to the frame go first, as they were recorded.
+        if let Some(topics) = robot {
+            while let Some((t, base_from_tool)) = robot_poses.next_if(|(t, _)| *t < seconds) {
+                write_robot_pose(&mut bag, topics, t, robot_stamp_offset, &base_from_tool)?;
+            }
+        }
         let images = scene
             .render_frame(frame.index)
             .context("frame index out of range")?;
@@ -320,37 +382,56 @@ fn write_bag(scene: &Scene, path: &Path) -> anyhow::Result<()> {
             bag.write_message(*image_topic, log_time, &message)?;
             bag.write_message(*info_topic, log_time, &camera_info(index, header))?;
         }
-        // The robot publishes the pose it reports, not the true one.
-        let reported = frame
-            .reported_base_from_tool
-            .as_ref()
-            .or(frame.base_from_tool.as_ref());
-        if let (Some((pose_topic, tf_topic)), Some(base_from_tool)) = (robot, reported) {
-            let base_from_tool = base_from_tool.isometry();
-            let header = Header {
-                stamp,
-                frame_id: BASE_FRAME.to_owned(),
-            };
-            let pose = PoseStamped {
-                header: header.clone(),
-                pose: pose_msg(&base_from_tool),
-            };
-            bag.write_message(pose_topic, log_time, &pose)?;
-            let tf = TFMessage {
-                transforms: vec![TransformStamped {
-                    header,
-                    child_frame_id: TOOL_FRAME.to_owned(),
-                    transform: transform_msg(&base_from_tool),
-                }],
-            };
-            bag.write_message(tf_topic, log_time, &tf)?;
+        if let Some(topics) = robot {
+            while let Some((t, base_from_tool)) = robot_poses.next_if(|(t, _)| *t <= seconds) {
+                write_robot_pose(&mut bag, topics, t, robot_stamp_offset, &base_from_tool)?;
+            }
         }
         progress.inc(1);
+    }
+    if let Some(topics) = robot {
+        for (t, base_from_tool) in robot_poses {
+            write_robot_pose(&mut bag, topics, t, robot_stamp_offset, &base_from_tool)?;
+        }
     }
     progress.finish_and_clear();
     bag.finish()
         .with_context(|| format!("cannot finish the bag {}", path.display()))?;
     Ok(())
+}
+
+/// Writes the robot's pose at time `t` (seconds) on its PoseStamped topic and `/tf`,
+/// stamped `offset` seconds later.
+fn write_robot_pose(
+    bag: &mut BagWriter,
+    (pose_topic, tf_topic): (TopicId, TopicId),
+    t: f64,
+    offset: f64,
+    base_from_tool: &Isometry3<f64>,
+) -> anyhow::Result<()> {
+    let log_time = nanos(t)?;
+    let header = Header {
+        stamp: stamp_of(t + offset)?,
+        frame_id: BASE_FRAME.to_owned(),
+    };
+    let pose = PoseStamped {
+        header: header.clone(),
+        pose: pose_msg(base_from_tool),
+    };
+    bag.write_message(pose_topic, log_time, &pose)?;
+    let tf = TFMessage {
+        transforms: vec![TransformStamped {
+            header,
+            child_frame_id: TOOL_FRAME.to_owned(),
+            transform: transform_msg(base_from_tool),
+        }],
+    };
+    bag.write_message(tf_topic, log_time, &tf)?;
+    Ok(())
+}
+
+fn stamp_seconds(stamp: &StampRecord) -> f64 {
+    f64::from(stamp.sec) + f64::from(stamp.nanosec) * 1e-9
 }
 
 fn ros_time(stamp: &StampRecord) -> Time {

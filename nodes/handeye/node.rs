@@ -41,8 +41,9 @@ use super::settings::{RobotSource, TargetSource, declare, settings};
 use super::store::SampleStore;
 use super::worker::{Endpoints, HandEyeWorker, RobotInputs, Service};
 
-/// Messages `/tf` keeps for late readers, as tf2's listener.
-const TF_DEPTH: usize = 100;
+/// Robot poses (or `/tf` messages) kept until the worker takes them: a second of a
+/// 1 kHz stream while the worker finds a target.
+const ROBOT_DEPTH: usize = 1000;
 
 /// Runs the hand-eye node until SIGINT/SIGTERM, with `args` the command line without
 /// the program name (`--ros-args` remaps, parameters, params files).
@@ -68,10 +69,10 @@ where
     };
     let robot = match settings.robot {
         RobotSource::Topic => RobotInputs::Topic(Box::new(
-            node.subscribe("robot_pose", qos::reliable(TF_DEPTH))?,
+            node.subscribe("robot_pose", qos::reliable(ROBOT_DEPTH))?,
         )),
         RobotSource::Tf => RobotInputs::Tf {
-            tf: Box::new(node.subscribe("/tf", qos::reliable(TF_DEPTH))?),
+            tf: Box::new(node.subscribe("/tf", qos::reliable(ROBOT_DEPTH))?),
             tf_static: Box::new(node.subscribe("/tf_static", qos::tf_static())?),
         },
     };

@@ -5,6 +5,8 @@
 //! on the corners to within its predicted uncertainty; bad arguments and too few samples
 //! are refused with a clear message.
 
+mod node;
+
 use indicatif::ProgressBar;
 use nalgebra::Isometry3;
 use stereocal::cli::handeye::{HandEyeArgs, SetupArg, handeye_bag};

@@ -14,6 +14,7 @@ mod photometry;
 mod poses;
 mod rays;
 mod render;
+mod robot_stream;
 mod saddle;
 mod scene;
 mod truth;
@@ -24,6 +25,7 @@ pub use corner_session::{CornerSession, CornerSessionSpec, corner_session, corne
 pub use photometry::Photometry;
 pub use poses::{Coverage, PoseRanges, PoseSampler};
 pub use render::{PixelFormat, Renderer, Shot};
+pub use robot_stream::RobotMotion;
 pub use saddle::{SaddleFit, saddle_point, saddle_point_through_lens};
 pub(crate) use scene::gaussian;
 pub use scene::{

@@ -166,7 +166,9 @@ impl SceneSpec {
             board,
             layout: RigLayout::Horizontal,
             baseline: 0.12,
-            period: 0.5,
+            // A hand-eye session's robot moves between frames and stands still at each
+            // (see RobotMotion).
+            period: if kind.is_hand_eye() { 2.0 } else { 0.5 },
             // An industrial arm's repeatability: 0.05 degree and 0.3 mm.
             robot_noise: if kind.is_hand_eye() {
                 RobotNoise {
