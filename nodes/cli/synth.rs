@@ -237,7 +237,8 @@ pub fn run_with_target(args: &SynthArgs, target: Option<&Target>) -> anyhow::Res
             bail!("{option} {value}: expected a number of at least 0");
         }
     }
-    if !(args.robot_stamp_offset.abs() <= MAX_STAMP_OFFSET_S) {
+    if !(args.robot_stamp_offset.is_finite() && args.robot_stamp_offset.abs() <= MAX_STAMP_OFFSET_S)
+    {
         bail!(
             "--robot-stamp-offset {}: expected seconds between -{MAX_STAMP_OFFSET_S} and {MAX_STAMP_OFFSET_S}",
             args.robot_stamp_offset

@@ -72,7 +72,7 @@ fn session() -> Session {
         FRAMES,
     );
     let truth = common::synthesize_session(&args, None);
-    let reader = BagReader::open(&dir.path().join("synth/bag")).expect("bag");
+    let reader = BagReader::open(dir.path().join("synth/bag")).expect("bag");
     let images: Vec<Image> = decode(&reader, "/camera/image_raw");
     let infos: Vec<CameraInfo> = decode(&reader, "/camera/camera_info");
     Session {
