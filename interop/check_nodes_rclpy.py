@@ -36,7 +36,12 @@ nodes around it would see:
   `/parameter_events` naming the node and the new value after a set, and every
   parameter described in one call (a reply larger than one datagram);
 - services: calibrate_node's `~/calibrate` (refused with the reason before enough
-  samples, then succeeding), `~/commit`, `~/reset`;
+  samples, then succeeding), `~/commit`, `~/reset`; handeye_node, fed a synthesized
+  eye-in-hand session (images, and the robot's PoseStamped poses standing still around
+  each frame) from rclpy: `~/take_sample` and `~/compute` refused with the reason before
+  any frame, a sample taken on every frame, `~/compute` equal (1e-9) to `stereocal
+  handeye --json` on the same bag and within three predicted standard deviations of
+  the truth, `~/save` writing the YAML PyYAML reads and report.html, `~/reset`;
 - durability: a transient-local subscriber created after calibrate_node or pose_node
   published `~/status` still receives the last status (pose_node's with the session's
   frame counts);
@@ -53,10 +58,10 @@ as one burst of datagrams, overflow it, and a best-effort subscriber gets none o
 (`--fastdds-socket-buffer 0` shows it).
 
 Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin pose_node
---bin stereocal`):
+--bin handeye_node --bin stereocal`):
     .venv/bin/python interop/check_nodes_rclpy.py [--rectify-node PATH]
-        [--calibrate-node PATH] [--pose-node PATH] [--stereocal PATH]
-        [--only rectify|calibrate|pose] [--fastdds-socket-buffer BYTES]
+        [--calibrate-node PATH] [--pose-node PATH] [--handeye-node PATH] [--stereocal PATH]
+        [--only rectify|calibrate|pose|handeye] [--fastdds-socket-buffer BYTES]
 """
 
 import argparse
@@ -246,7 +251,8 @@ def describe_all_check(checks, label, params):
 
 #: Allowed values, other than the default, of string parameters with a fixed set: a set
 #: of one of them can only be refused for being read-only.
-OTHER_ALLOWED_VALUE = {"pattern": "charuco", "model": "rational_polynomial"}
+OTHER_ALLOWED_VALUE = {"pattern": "charuco", "model": "rational_polynomial",
+                       "setup": "eye_to_hand"}
 
 
 # ---------------------------------------------------------------------------------------
@@ -1005,21 +1011,237 @@ def pose_checks(checks, peer, rosout, p, session, frames):
     describe_all_check(checks, label, p.params)
 
 
+# ---------------------------------------------------------------------------------------
+# handeye_node
+
+ROBOT_POSE = "/robot/tool_pose"
+#: Frames of the hand-eye session: the robot stands still around each.
+HANDEYE_FRAMES = 6
+
+
+def rclpy_pose(msg):
+    """A rosbags PoseStamped as rclpy's."""
+    p, q = msg.pose.position, msg.pose.orientation
+    out = PoseStamped(header=header(stamp_of(msg), msg.header.frame_id))
+    out.pose.position.x, out.pose.position.y, out.pose.position.z = p.x, p.y, p.z
+    (out.pose.orientation.x, out.pose.orientation.y, out.pose.orientation.z,
+     out.pose.orientation.w) = q.x, q.y, q.z, q.w
+    return out
+
+
+def seconds_of(stamp):
+    return stamp[0] + stamp[1] * 1e-9
+
+
+class HandEye:
+    """handeye_node at the root, on the camera's images and the robot's PoseStamped
+    topic, and rclpy around it: publishers of both, a subscriber of the status."""
+    label, name, namespace = "handeye_node", "handeye_node", "/"
+    fqn = "/handeye_node"
+
+    def __init__(self, peer, binary, size, square, state_dir):
+        self.peer = peer
+        node = peer.node
+        self.image_pub = node.create_publisher(Image, IMAGE_RAW, RELIABLE)
+        self.info_pub = node.create_publisher(CameraInfo, CAMERA_INFO, RELIABLE)
+        self.robot_pub = node.create_publisher(PoseStamped, ROBOT_POSE, QoSProfile(depth=1000))
+        self.status = peer.subscribe(String, f"{self.fqn}/status", STATUS_QOS)
+        self.documented = {
+            "setup": "eye_in_hand", "target_source": "image", "robot_source": "topic",
+            "base_frame": "base", "tool_frame": "tool", "camera_frame": "",
+            "max_time_difference": 0.02, "stillness_time": 0.5, "stillness_tolerance": 0.001,
+            "auto_sample": False, "pattern": "chessboard", "size": size, "square": square,
+            "state_dir": str(state_dir), "queue_size": 5,
+        }
+        self.process = NodeProcess(
+            [binary, "--ros-args", "-r", f"image:={IMAGE_RAW}", "-r", f"camera_info:={CAMERA_INFO}",
+             "-r", f"robot_pose:={ROBOT_POSE}", "-p", "robot_source:=topic", "-p", "base_frame:=base",
+             "-p", "tool_frame:=tool", "-p", f"size:={size}", "-p", f"square:={square}",
+             "-p", f"state_dir:={state_dir}"], peer.domain)
+        peer.watch(self.process)
+        self.params = Parameters(peer, self.fqn)
+
+    def last_status(self):
+        return json.loads(self.status.last.data) if self.status.last else None
+
+    def send_until_judged(self, frame):
+        """Publishes the frame again while the status shows no verdict on it."""
+        stamp = seconds_of(stamp_of(frame[0]))
+
+        def judged():
+            status = self.last_status()
+            latest = status and status["latest"]
+            return latest if latest and latest["stamp"] == stamp else None
+
+        def send():
+            self.info_pub.publish(frame[1])
+            self.image_pub.publish(frame[0])
+        return self.peer.send_until(send, judged, lambda: f"a verdict on the frame at {stamp} s; "
+                                                          f"status {self.last_status()}")
+
+
+def check_handeye(checks, peer, rosout, binary, stereocal):
+    label = HandEye.label
+    setup = f"setup: stereocal synth (eye-in-hand, {HANDEYE_FRAMES} frames), stereocal handeye"
+    with tempfile.TemporaryDirectory() as tmp:
+        with checks.check(label, setup) as note:
+            session = synthesize(stereocal, tmp, frames=HANDEYE_FRAMES)
+            frames = [rclpy_frame(*f) for f in session.frames()]
+            robot = [rclpy_pose(m) for _, m in bag_messages(session.bag, (ROBOT_POSE,))]
+            size, square = session.size_parameters()
+            run = subprocess.run(
+                [str(stereocal), "handeye", "--bag", str(session.bag), "--setup", "eye-in-hand",
+                 "--image-topic", IMAGE_RAW, "--size", size, "--square", str(square),
+                 "--robot-pose-topic", ROBOT_POSE, "--out", str(Path(tmp) / "offline"), "--json"],
+                capture_output=True, text=True)
+            require(run.returncode == 0, f"stereocal handeye failed:\n{run.stderr}")
+            offline = json.loads(run.stdout)
+            truth = json.loads((Path(tmp) / "scene" / "ground_truth.json").read_text())
+            require(len(frames) == HANDEYE_FRAMES and robot, f"{len(frames)} frames, "
+                    f"{len(robot)} robot poses")
+            note(f"{len(robot)} robot poses; offline {offline['chosen']}")
+        if not checks.passed(label, setup):
+            return checks.skip(label, "the other checks", "no synthesized session")
+        h = HandEye(peer, binary, size, square, Path(tmp) / "state")
+        try:
+            handeye_checks(checks, peer, rosout, h, frames, robot, offline, truth, Path(tmp))
+        finally:
+            stop_and_check(checks, peer, h.process, label, h.name, h.namespace)
+
+
+def handeye_checks(checks, peer, rosout, h, frames, robot, offline, truth, tmp):
+    label, fqn = h.label, h.fqn
+    if not discovered(checks, peer, label, h.name, h.namespace):
+        return checks.skip(label, "the other checks", "the node was not discovered")
+
+    with checks.check(label, "graph: topics, services and their types (/tf_static's by name)"):
+        trigger = ["std_srvs/srv/Trigger"]
+        graph_check(peer, h.name, h.namespace, {
+            "publishers": {f"{fqn}/status": ["std_msgs/msg/String"],
+                           "/tf_static": ["tf2_msgs/msg/TFMessage"],
+                           "/rosout": ["rcl_interfaces/msg/Log"],
+                           "/parameter_events": ["rcl_interfaces/msg/ParameterEvent"]},
+            "subscribers": {IMAGE_RAW: ["sensor_msgs/msg/Image"],
+                            CAMERA_INFO: ["sensor_msgs/msg/CameraInfo"],
+                            ROBOT_POSE: ["geometry_msgs/msg/PoseStamped"]},
+            "services": {**{f"{fqn}/{s}": trigger for s in ("take_sample", "compute", "save",
+                                                            "reset")},
+                         f"{fqn}/remove_sample": ["stereocal_msgs/srv/RemoveSample"],
+                         **parameter_services(fqn)},
+            "clients": {},
+        })
+
+    with checks.check(label, "~/status: JSON at start-up"):
+        status = peer.wait_until(h.last_status, f"{fqn}/status")
+        require(status["samples"] == [] and status["result"] is None
+                and status["setup"] == "eye-in-hand", f"start-up status {status}")
+    if not checks.passed(label, "~/status: JSON at start-up"):
+        return checks.skip(label, "the other checks", "no ~/status to follow the node by")
+
+    with checks.check(label, "~/take_sample and ~/compute refused with the reason before "
+                             "any frame") as note:
+        early = peer.trigger(f"{fqn}/take_sample")
+        require(not early.success and "no target frame yet" in early.message, f"{early}")
+        compute = peer.trigger(f"{fqn}/compute")
+        require(not compute.success and "too few samples" in compute.message, f"{compute}")
+        note(f"{early.message!r}; {compute.message!r}")
+
+    session_check = f"~/take_sample: {len(frames)} samples with the robot still"
+    with checks.check(label, session_check) as note:
+        peer.wait_until(lambda: h.image_pub.get_subscription_count() > 0
+                        and h.robot_pub.get_subscription_count() > 0,
+                        "handeye_node's image and robot_pose subscriptions")
+        sent = 0
+        for k, frame in enumerate(frames):
+            stamp = seconds_of(stamp_of(frame[0]))
+            while sent < len(robot) and seconds_of(stamp_of(robot[sent])) <= stamp + 0.1:
+                h.robot_pub.publish(robot[sent])
+                sent += 1
+            latest = h.send_until_judged(frame)
+            require(latest["ready"], f"frame {k}: {latest}")
+            taken = peer.trigger(f"{fqn}/take_sample")
+            require(taken.success, f"frame {k}: {taken.message}")
+            peer.wait_until(lambda: len(h.last_status()["samples"]) == k + 1,
+                            lambda: f"sample {k} in the status: {h.last_status()}")
+        note(f"{len(frames)} samples, {sent} robot poses sent")
+    if not checks.passed(label, session_check):
+        return checks.skip(label, "the other checks", "no samples")
+
+    with checks.check(label, "~/compute: equal to stereocal handeye, near the truth") as note:
+        computed = peer.trigger(f"{fqn}/compute")
+        require(computed.success and "/tf_static" in computed.message, computed.message)
+        result = peer.wait_until(lambda: h.last_status()["result"], "the result in the status")
+        require(result["chosen"] == offline["chosen"] == "refined",
+                f"chose {result['chosen']}, offline {offline['chosen']}")
+        node_t, offline_t = result["transform"], offline["results"]["refined"]
+        difference = max(float(np.abs(np.subtract(node_t["rotation"], offline_t["rotation"])).max()),
+                         float(np.abs(np.subtract(node_t["translation"],
+                                                  offline_t["translation"])).max()))
+        require(difference < 1e-9, f"differs from stereocal handeye by {difference:.3g}")
+        tool_from_camera = truth["extrinsics"]["tool_from_camera"]
+        r_true = np.reshape(tool_from_camera["rotation_row_major"], (3, 3))
+        angle, _ = cv2.Rodrigues(np.reshape(node_t["rotation"], (3, 3)) @ r_true.T)
+        degrees = float(np.degrees(np.linalg.norm(angle)))
+        mm = float(np.linalg.norm(np.subtract(node_t["translation"],
+                                              tool_from_camera["translation_m"])) * 1e3)
+        u = result["uncertainty"]
+        require(degrees < 3 * u["rotation_deg"] and mm < 3 * u["translation_mm"],
+                f"{degrees:.4f} deg, {mm:.3f} mm from the truth; predicted {u}")
+        note(f"{degrees:.4f} deg, {mm:.3f} mm from the truth (predicted {u['rotation_deg']:.4f} "
+             f"deg, {u['translation_mm']:.3f} mm); {difference:.1g} from offline")
+
+    with checks.check(label, "~/save: the YAML and report.html"):
+        saved = peer.trigger(f"{fqn}/save")
+        require(saved.success, saved.message)
+        written = yaml.safe_load((tmp / "state" / "handeye.yaml").read_text())
+        require(written["chosen"] == "refined" and written["samples"] == len(frames),
+                f"handeye.yaml: chosen {written['chosen']}, {written['samples']} samples")
+        require((tmp / "state" / "report.html").exists(), "no report.html")
+
+    with checks.check(label, "~/status: transient local to a late subscriber"):
+        late = peer.subscribe(String, f"{fqn}/status", STATUS_QOS)
+        peer.wait_until(lambda: late.last and json.loads(late.last.data)["result"],
+                        "the status with the result on a subscriber created after it")
+
+    with checks.check(label, "/rosout: the samples taken, with the logger's name"):
+        peer.wait_until(
+            lambda: next((m for m in rosout.messages if m.name == "handeye_node"
+                          and "take_sample" in m.msg and "taken" in m.msg), None),
+            "a /rosout record of logger handeye_node saying a sample was taken", timeout=20)
+
+    with checks.check(label, "~/reset: every sample moved aside"):
+        reset = peer.trigger(f"{fqn}/reset")
+        require(reset.success, reset.message)
+        peer.wait_until(lambda: h.last_status()["samples"] == [], "no samples in the status")
+        require((tmp / "state" / "reset-1").is_dir(), "no reset-1 folder in state_dir")
+
+    common_parameter_checks(
+        checks, label, h.params, h.documented, read_only=list(h.documented),
+        constraints={"setup": ["eye_in_hand", "eye_to_hand"], "robot_source": ["tf", "topic"],
+                     "target_source": ["image", "pose"]},
+        refuse=["setup", "queue_size"])
+    describe_all_check(checks, label, h.params)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rectify-node", default=str(ROOT / "target" / "debug" / "rectify_node"))
     parser.add_argument("--calibrate-node",
                         default=str(ROOT / "target" / "debug" / "calibrate_node"))
     parser.add_argument("--pose-node", default=str(ROOT / "target" / "debug" / "pose_node"))
+    parser.add_argument("--handeye-node",
+                        default=str(ROOT / "target" / "debug" / "handeye_node"))
     parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
-    parser.add_argument("--only", choices=("rectify", "calibrate", "pose"))
+    parser.add_argument("--only", choices=("rectify", "calibrate", "pose", "handeye"))
     parser.add_argument("--fastdds-socket-buffer", type=int, default=8 * 1024 * 1024,
                         help="bytes of Fast DDS's UDP socket buffers; 0 keeps its default")
     args = parser.parse_args()
-    for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.stereocal):
+    for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.handeye_node,
+                   args.stereocal):
         if not Path(binary).exists():
             raise SystemExit(f"{binary} not found; build it with `cargo build --bin rectify_node "
-                             "--bin calibrate_node --bin pose_node --bin stereocal`")
+                             "--bin calibrate_node --bin pose_node --bin handeye_node "
+                             "--bin stereocal`")
 
     def run(checks):
         lease = DomainLease()
@@ -1033,6 +1255,8 @@ def main():
                 check_calibrate(checks, peer, rosout, args.calibrate_node, args.stereocal)
             if args.only in (None, "pose"):
                 check_pose(checks, peer, rosout, args.pose_node, args.stereocal)
+            if args.only in (None, "handeye"):
+                check_handeye(checks, peer, rosout, args.handeye_node, args.stereocal)
         finally:
             peer.close()
             lease.release()

@@ -40,3 +40,35 @@ pub mod srv {
         "bool success\nstring message\nuint32 samples\n"
     );
 }
+
+#[cfg(test)]
+mod tests {
+    use super::srv::{RemoveSampleRequest, RemoveSampleResponse};
+    use crate::RosMessage;
+
+    /// The fields of the shipped `.srv` file, comments and blank lines left out, request
+    /// and response.
+    fn srv_fields(text: &str) -> Vec<String> {
+        text.split("---")
+            .map(|part| {
+                part.lines()
+                    .map(str::trim)
+                    .filter(|l| !l.is_empty() && !l.starts_with('#'))
+                    .map(|l| format!("{l}\n"))
+                    .collect()
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_shipped_interface_has_the_fields_of_the_types() {
+        let srv = srv_fields(include_str!("../ros/stereocal_msgs/srv/RemoveSample.srv"));
+        assert_eq!(
+            srv,
+            [
+                RemoveSampleRequest::DEFINITION,
+                RemoveSampleResponse::DEFINITION
+            ]
+        );
+    }
+}

@@ -117,8 +117,8 @@ impl RobotPoses {
         errors
     }
 
-    /// The robot's frames as known: the base frame (from the topic's messages when the
-    /// poses come from a topic) and, with TF, the tool frame.
+    /// The robot's base frame as known: from the topic's newest message when the poses
+    /// come from a topic.
     pub fn base_frame(&self) -> Option<&str> {
         match self {
             Self::Topic { base_frame, .. } => base_frame.as_deref(),
@@ -197,9 +197,12 @@ mod tests {
         }
     }
 
+    /// Start of the poses, seconds.
+    const T0: f64 = 100.0;
+
     fn pose_at(t: f64) -> Isometry3<f64> {
-        // Still until 2 s, then turning at 0.1 rad/s and moving at 10 mm/s.
-        let moving = (t - 2.0).max(0.0);
+        // Still until 2 s after T0, then turning at 0.1 rad/s and moving at 10 mm/s.
+        let moving = (t - T0 - 2.0).max(0.0);
         Isometry3::from_parts(
             Vector3::new(0.4 + 0.01 * moving, 0.0, 0.3).into(),
             UnitQuaternion::from_scaled_axis(Vector3::new(0.0, 0.0, 0.1 * moving)),
@@ -210,7 +213,7 @@ mod tests {
     fn a_topic_gives_the_pose_at_the_stamp_and_whether_the_robot_was_still() {
         let mut robot = RobotPoses::topic();
         for k in 0..=40 {
-            let t = 100.0 + 0.1 * f64::from(k) - 100.0;
+            let t = T0 + 0.1 * f64::from(k);
             let message = PoseStamped {
                 header: Header {
                     stamp: stamp(t),
@@ -221,22 +224,22 @@ mod tests {
             robot.insert_pose(&message).unwrap();
         }
         assert_eq!(robot.base_frame(), Some("base"));
-        assert_eq!(robot.newest(), Some(4.0));
-        let at = robot.base_from_tool(3.05, 0.06).unwrap();
-        assert!((at.translation.vector.x - pose_at(3.05).translation.vector.x).abs() < 1e-9);
+        assert!((robot.newest().unwrap() - (T0 + 4.0)).abs() < 1e-6);
+        let at = robot.base_from_tool(T0 + 3.05, 0.06).unwrap();
+        assert!((at.translation.vector.x - pose_at(T0 + 3.05).translation.vector.x).abs() < 1e-9);
         // Never extrapolated.
-        assert!(robot.base_from_tool(4.05, 0.06).is_err());
+        assert!(robot.base_from_tool(T0 + 4.05, 0.06).is_err());
 
-        let still = robot.motion_before(1.9, 1.0, 0.11).unwrap();
+        let still = robot.motion_before(T0 + 1.9, 1.0, 0.11).unwrap();
         assert!(
             still.rotation_rad < 1e-9 && still.translation_m < 1e-9,
             "{still:?}"
         );
-        let moving = robot.motion_before(3.0, 0.5, 0.11).unwrap();
+        let moving = robot.motion_before(T0 + 3.0, 0.5, 0.11).unwrap();
         assert!((moving.rotation_rad - 0.05).abs() < 1e-6, "{moving:?}");
         assert!((moving.translation_m - 0.005).abs() < 1e-3, "{moving:?}");
         // Before the first pose the window is not covered.
-        let unknown = robot.motion_before(0.5, 1.0, 0.11).unwrap_err();
+        let unknown = robot.motion_before(T0 + 0.5, 1.0, 0.11).unwrap_err();
         assert!(unknown.contains("before"), "{unknown}");
 
         // A non-unit quaternion is refused by name.
@@ -248,7 +251,7 @@ mod tests {
         again.pose.orientation.w = 1.0;
         again.header.stamp = stamp(0.0);
         robot.insert_pose(&again).unwrap();
-        assert!(robot.base_from_tool(3.0, 0.11).is_err());
+        assert!(robot.base_from_tool(T0 + 3.0, 0.11).is_err());
     }
 
     #[test]
@@ -289,9 +292,13 @@ mod tests {
             unreachable!()
         };
         assert!(buffer.connects("base", "tool").is_ok());
-        let no_path = RobotPoses::tf("base", "camera")
-            .base_from_tool(1.0, 0.1)
-            .unwrap_err();
-        assert!(no_path.contains("camera"), "{no_path}");
+        // A frame no transform names: said by name, with the frames there are.
+        let mut elsewhere = RobotPoses::tf("flange", "camera");
+        assert!(elsewhere.insert_tf(&statics, true).is_empty());
+        let unknown = elsewhere.base_from_tool(1.0, 0.1).unwrap_err();
+        assert!(
+            unknown.contains("\"camera\"") && unknown.contains("flange, tool"),
+            "{unknown}"
+        );
     }
 }
