@@ -839,6 +839,9 @@ impl Worker for HandEyeWorker {
         self.receive_robot();
         match self.observe(&set) {
             Ok(None) => {}
+            // A frame delivered again (same stamp) while its first copy waits adds
+            // nothing.
+            Ok(Some(observation)) if self.pending.iter().any(|o| o.stamp == observation.stamp) => {}
             Ok(Some(observation)) => {
                 self.pending.push_back(observation);
                 if self.pending.len() > MAX_PENDING

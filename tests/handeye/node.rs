@@ -6,7 +6,11 @@
 //! next to a damaged sample file: the samples are back and the damaged file is named.
 //! `~/compute` publishes `tool -> camera` on `/tf_static`, equal to what
 //! `stereocal handeye` computes offline from the same bag and near the truth; `~/save`
-//! writes it; bad requests get a clear refusal.
+//! writes it; bad requests get a clear refusal. In automatic mode every new still pose
+//! is sampled without a call, and a frame without the target, one without a robot pose
+//! at its stamp and one where a sample was already taken are each refused with their
+//! reason. pose_node's poses (`target_source: pose`) calibrate as `stereocal pose` then
+//! `stereocal handeye` do.
 
 use std::path::Path;
 use std::process::Command;
@@ -15,6 +19,7 @@ use std::time::{Duration, Instant};
 use nalgebra::{Isometry3, Quaternion, Translation3, UnitQuaternion};
 use ros2_client::{Publisher, Subscription};
 use stereocal::cli::handeye::{HandEyeArgs, SetupArg, handeye_bag};
+use stereocal::cli::pose::{PoseArgs, pose_bag};
 use stereocal::cli::synth::{SceneArg, SynthArgs};
 use stereocal::handeye::report::HandEyeReport;
 use stereocal::pose::record::{isometry_of, seconds};
@@ -218,7 +223,8 @@ impl Player {
         let client = match which {
             "take_sample" => &self.take_sample,
             "compute" => &self.compute,
-            _ => &self.save,
+            "save" => &self.save,
+            other => panic!("no service {other}"),
         };
         assert!(
             wait_for_server(self.peer.node(), client, DEADLINE),
@@ -251,6 +257,7 @@ fn start_node(
     state_dir: &Path,
     robot: Robot,
     board: (usize, usize, f64),
+    extra: &[&str],
 ) -> NodeProcess {
     let mut command = Command::new(env!("CARGO_BIN_EXE_handeye_node"));
     command.args([
@@ -263,6 +270,8 @@ fn start_node(
         "camera_info:=/camera/camera_info",
         "-r",
         "robot_pose:=/robot/tool_pose",
+        "-r",
+        "target_pose:=/camera/target_pose",
         "-p",
         &format!("size:={}x{}", board.0, board.1),
         "-p",
@@ -282,6 +291,9 @@ fn start_node(
             }
         ),
     ]);
+    for parameter in extra {
+        command.args(["-p", parameter]);
+    }
     NodeProcess::spawn(command, domain.id()).expect("handeye_node starts")
 }
 
@@ -300,7 +312,7 @@ fn run_session(robot: Robot) {
     let state_dir = session.dir.path().join("state");
     let domain = DomainLease::for_test().expect("a ROS domain");
     let mut player = Player::new(&domain);
-    let mut node = start_node(&domain, &state_dir, robot, board);
+    let mut node = start_node(&domain, &state_dir, robot, board, &[]);
     player.wait_for("the node's first status", |p| !p.last_status.is_null());
 
     // Nothing seen yet: refused, and said why.
@@ -339,7 +351,7 @@ fn run_session(robot: Robot) {
             assert!(logs.contains("take_sample"), "{logs}");
             std::fs::write(state_dir.join("sample-000099.yaml"), "stamp: [damaged").unwrap();
             player.last_status = serde_json::Value::Null;
-            node = start_node(&domain, &state_dir, robot, board);
+            node = start_node(&domain, &state_dir, robot, board, &[]);
             player.wait_for("the restarted node's status", |p| !p.last_status.is_null());
             assert_eq!(player.samples(), KILL_AFTER, "{}", player.last_status);
             let damaged = &player.last_status["damaged"];
@@ -430,4 +442,187 @@ fn a_session_with_robot_poses_on_a_topic_survives_a_kill_and_matches_the_offline
 #[test]
 fn a_session_with_robot_poses_on_tf_survives_a_kill_and_matches_the_offline_command() {
     run_session(Robot::Tf);
+}
+
+/// The newest frame's reason in the status, once it is about the frame at `stamp`.
+fn latest_reason(player: &Player) -> String {
+    player.last_status["latest"]["reason"]
+        .as_str()
+        .unwrap_or_default()
+        .to_owned()
+}
+
+#[test]
+fn automatic_mode_samples_each_new_still_pose_and_says_why_a_frame_cannot_be_sampled() {
+    let session = session();
+    let board = &session.truth.board;
+    let board = (board.cols, board.rows, board.square_size);
+    let state_dir = session.dir.path().join("state");
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let mut player = Player::new(&domain);
+    let node = start_node(
+        &domain,
+        &state_dir,
+        Robot::Topic,
+        board,
+        &["auto_sample:=true", "auto_min_rotation:=0.1"],
+    );
+    player.wait_for("the node's first status", |p| !p.last_status.is_null());
+
+    // A frame before any robot pose: no partner for its stamp, said after the wait.
+    let first = &session.frames[0];
+    player.send_frame(first);
+    player.wait_for("the unpaired frame's reason", |p| {
+        latest_reason(p).contains("no robot pose has arrived on robot_pose")
+    });
+    let refused = player.trigger("take_sample");
+    assert!(
+        !refused.success
+            && refused
+                .message
+                .contains("no robot pose at the newest frame's stamp"),
+        "{refused:?}"
+    );
+
+    // An image without the target.
+    let (mut blank, info) = first.clone();
+    blank.data.fill(200);
+    blank.header.stamp.sec -= 1;
+    let mut blank_info = info.clone();
+    blank_info.header.stamp = blank.header.stamp;
+    player.send_frame(&(blank, blank_info));
+    let reason = latest_reason(&player);
+    assert!(reason.contains("not visible"), "{reason}");
+    let refused = player.trigger("take_sample");
+    assert!(
+        !refused.success
+            && refused
+                .message
+                .contains("no target pose in the newest frame"),
+        "{refused:?}"
+    );
+
+    // Every still pose sampled without a call.
+    let mut robot_sent = 0;
+    for (k, frame) in session.frames.iter().enumerate() {
+        let stamp = seconds(&frame.0.header.stamp);
+        player.send_robot(&session, Robot::Topic, &mut robot_sent, stamp + 0.1);
+        player.send_frame(frame);
+        player.wait_for("the automatic sample", |p| p.samples() == k + 1);
+    }
+    // The last pose again: the robot stands where a sample was taken; nothing new.
+    let (mut again, mut again_info) = session.frames[FRAMES - 1].clone();
+    again.header.stamp.nanosec += 50_000_000;
+    again_info.header.stamp = again.header.stamp;
+    player.send_frame(&(again, again_info));
+    let reason = latest_reason(&player);
+    assert!(
+        reason.contains(&format!("stands where sample {} was taken", FRAMES - 1)),
+        "{reason}"
+    );
+    assert_eq!(player.samples(), FRAMES);
+    let computed = player.trigger("compute");
+    assert!(computed.success, "{computed:?}");
+    let exit = node.terminate();
+    assert!(exit.clean(), "{}", exit.logs);
+    assert!(exit.logs.contains("automatic sample"), "{}", exit.logs);
+}
+
+/// pose_node measures the target; handeye_node takes its poses (`target_source: pose`)
+/// and the robot's from /tf: the result equals `stereocal handeye` on the poses
+/// `stereocal pose` finds in the same bag.
+#[test]
+fn pose_node_feeds_handeye_node_and_the_result_matches_the_offline_commands() {
+    let session = session();
+    let board = &session.truth.board;
+    let board = (board.cols, board.rows, board.square_size);
+    let state_dir = session.dir.path().join("state");
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let mut player = Player::new(&domain);
+    let mut pose_node = Command::new(env!("CARGO_BIN_EXE_pose_node"));
+    pose_node.args([
+        "--ros-args",
+        "-r",
+        "__ns:=/camera",
+        "-r",
+        "image:=image_raw",
+        "-p",
+        &format!("size:={}x{}", board.0, board.1),
+        "-p",
+        &format!("square:={}", board.2),
+        "-p",
+        "publish_tf:=false",
+    ]);
+    let pose_node = NodeProcess::spawn(pose_node, domain.id()).expect("pose_node starts");
+    let node = start_node(
+        &domain,
+        &state_dir,
+        Robot::Tf,
+        board,
+        &["target_source:=pose"],
+    );
+    player.wait_for("the node's first status", |p| !p.last_status.is_null());
+    let mut robot_sent = 0;
+    for (k, frame) in session.frames.iter().enumerate() {
+        let stamp = seconds(&frame.0.header.stamp);
+        player.send_robot(&session, Robot::Tf, &mut robot_sent, stamp + 0.1);
+        player.send_frame(frame);
+        let taken = player.trigger("take_sample");
+        assert!(taken.success, "frame {k}: {taken:?}");
+    }
+    let computed = player.trigger("compute");
+    assert!(computed.success, "{computed:?}");
+    player.wait_for("the result on /tf_static", |p| {
+        !p.received_tf_static.is_empty()
+    });
+    let tool_from_camera =
+        isometry_of_transform(&player.received_tf_static[0].transforms[0].transform);
+
+    let posed = session.dir.path().join("posed");
+    pose_bag(
+        &PoseArgs::chessboard(
+            session.dir.path().join("synth/bag"),
+            posed.clone(),
+            board.0,
+            board.1,
+            board.2,
+        ),
+        &indicatif::ProgressBar::hidden(),
+    )
+    .expect("stereocal pose");
+    let offline = handeye_bag(&HandEyeArgs::from_poses(
+        posed,
+        SetupArg::EyeInHand,
+        "/camera/target_pose",
+        "/robot/tool_pose",
+        session.dir.path().join("offline"),
+    ))
+    .expect("stereocal handeye");
+    let status_result = &player.last_status["result"];
+    assert_eq!(status_result["chosen"], offline.chosen.as_str());
+    let (deg, mm) = pose_error(
+        &tool_from_camera,
+        &isometry_of(&offline.results[&offline.chosen]),
+    );
+    assert!(
+        deg < 1e-6 && mm < 1e-6,
+        "node against offline: {deg} deg, {mm} mm"
+    );
+    let truth = session
+        .truth
+        .extrinsics
+        .tool_from_camera
+        .as_ref()
+        .unwrap()
+        .isometry();
+    let (deg, mm) = pose_error(&tool_from_camera, &truth);
+    println!(
+        "pose_node -> handeye_node ({}): {deg:.4} deg, {mm:.3} mm",
+        offline.chosen
+    );
+    assert!(deg < 0.1 && mm < 2.0, "{deg} deg, {mm} mm");
+    for process in [node, pose_node] {
+        let exit = process.terminate();
+        assert!(exit.clean(), "{}", exit.logs);
+    }
 }

@@ -60,7 +60,13 @@ impl RobotMotion {
         if arrive <= leave {
             return if t < 0.5 * (t0 + t1) { *p0 } else { *p1 };
         }
-        let s = ((t - leave) / (arrive - leave)).clamp(0.0, 1.0);
+        if t <= leave {
+            return *p0;
+        }
+        if t >= arrive {
+            return *p1;
+        }
+        let s = (t - leave) / (arrive - leave);
         Isometry3::from_parts(
             p0.translation.vector.lerp(&p1.translation.vector, s).into(),
             p0.rotation.slerp(&p1.rotation, s),
