@@ -15,7 +15,10 @@ nodes around it would see:
   published from rclpy's input;
 - content: rectify_node's image_rect equals OpenCV's initUndistortRectifyMap + remap
   within 1 grey level (bilinear, then nearest after `interpolation` is set to 0 while it
-  runs); calibrate_node, fed a synthesized stereo session (`stereocal synth`) from
+  runs), and with `image_transport: compressed`, fed PNG (mono8, rgb8) and JPEG
+  CompressedImage on `image_raw/compressed`, equals OpenCV's remap of the image (PNG,
+  within 1) or of OpenCV's imdecode of the JPEG (within 2), logging a truncated JPEG and
+  going on; calibrate_node, fed a synthesized stereo session (`stereocal synth`) from
   rclpy, calibrates on `~/calibrate` within 0.2 px (fx, fy, cx, cy), 0.1 degree and 1 mm
   (right_from_left) of the session's ground truth, and `~/commit` writes camera_info
   YAML that PyYAML reads back with the same numbers, while rclpy's set_camera_info
@@ -95,7 +98,7 @@ from rclpy.qos import (
     DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_parameter_events,
     qos_profile_rosout_default, qos_profile_sensor_data,
 )
-from sensor_msgs.msg import CameraInfo, Image, RegionOfInterest
+from sensor_msgs.msg import CameraInfo, CompressedImage, Image, RegionOfInterest
 from sensor_msgs.srv import SetCameraInfo
 from std_msgs.msg import Header, String
 
@@ -307,6 +310,103 @@ class Rectify:
             lambda: stamps.append(self.send(raw)), received,
             lambda: f"image_rect of a frame on both subscribers (so far reliable "
                     f"{self.reliable.count}, best-effort {self.sensor.count})")
+
+
+class RectifyCompressed:
+    """rectify_node in /camz with `image_transport: compressed`, reading
+    /camz/image_raw/compressed, and rclpy around it."""
+    label, name, namespace = "rectify_node (compressed)", "rectify_node", "/camz"
+    fqn = "/camz/rectify_node"
+
+    def __init__(self, peer, binary):
+        self.peer = peer
+        node = peer.node
+        self.image_pub = node.create_publisher(CompressedImage, "/camz/image_raw/compressed",
+                                               RELIABLE)
+        self.info_pub = node.create_publisher(CameraInfo, "/camz/camera_info", RELIABLE)
+        self.rect = peer.subscribe(Image, "/camz/image_rect", RELIABLE)
+        self.process = NodeProcess(
+            [binary, "--ros-args", "-r", "__ns:=/camz", "-r", "image:=image_raw",
+             "-p", "image_transport:=compressed"], peer.domain)
+        peer.watch(self.process)
+        self.sent = 0
+
+    def send(self, data, format):
+        """Publishes a compressed frame and its camera_info with a new stamp."""
+        self.sent += 1
+        stamp = (300, self.sent * 1000)
+        self.info_pub.publish(camera_info_msg(stamp))
+        self.image_pub.publish(CompressedImage(header=header(stamp, "cam_optical"), format=format,
+                                               data=array.array("B", data)))
+        return stamp
+
+    def exchange(self, data, format):
+        """Sends a compressed frame until its image_rect arrives; returns it."""
+        stamps = []
+
+        def received():
+            return next((m for m in self.rect.messages if stamp_of(m) in stamps), None)
+        return self.peer.send_until(lambda: stamps.append(self.send(data, format)), received,
+                                    f"image_rect of a {format!r} frame")
+
+
+def check_rectify_compressed(checks, peer, rosout, binary):
+    r = RectifyCompressed(peer, binary)
+    label = r.label
+    try:
+        if not discovered(checks, peer, label, r.name, r.namespace):
+            return checks.skip(label, "the other checks", "the node was not discovered")
+
+        with checks.check(label, "graph: image_raw/compressed subscribed"):
+            graph_check(peer, r.name, r.namespace, {
+                "publishers": {"/camz/image_rect": ["sensor_msgs/msg/Image"],
+                               "/rosout": ["rcl_interfaces/msg/Log"],
+                               "/parameter_events": ["rcl_interfaces/msg/ParameterEvent"]},
+                "subscribers": {"/camz/image_raw/compressed": ["sensor_msgs/msg/CompressedImage"],
+                                "/camz/camera_info": ["sensor_msgs/msg/CameraInfo"]},
+                "services": parameter_services(r.fqn),
+                "clients": {},
+            })
+
+        with checks.check(label, "PNG (mono8, rgb8): image_rect equal to OpenCV's remap of the "
+                                 "image") as note:
+            peer.wait_until(lambda: r.image_pub.get_subscription_count() > 0
+                            and r.info_pub.get_subscription_count() > 0,
+                            "rectify_node's image/compressed and camera_info subscriptions")
+            worst = 0
+            for index, (channels, format) in enumerate(((1, "mono8; png compressed"),
+                                                        (3, "rgb8; png compressed rgb8"))):
+                raw = pixels(index + 20, channels)
+                # OpenCV writes what it takes as BGR: give it the channels reversed.
+                ok, png = cv2.imencode(".png", raw if channels == 1 else raw[..., ::-1])
+                require(ok, "cv2.imencode failed")
+                msg = r.exchange(png.tobytes(), format)
+                worst = max(worst, rect_difference(msg, raw, cv2.INTER_LINEAR))
+            require(worst <= 1, f"image_rect differs from OpenCV (bilinear) by {worst}")
+            note(f"|image_rect - OpenCV bilinear| <= {worst}")
+
+        with checks.check(label, "JPEG (mono8): image_rect within 2 grey levels of OpenCV's "
+                                 "imdecode + remap") as note:
+            raw = pixels(30, 1)
+            ok, jpeg = cv2.imencode(".jpg", raw, [cv2.IMWRITE_JPEG_QUALITY, 90])
+            require(ok, "cv2.imencode failed")
+            decoded = cv2.imdecode(jpeg, cv2.IMREAD_UNCHANGED).reshape(HEIGHT, WIDTH, 1)
+            msg = r.exchange(jpeg.tobytes(), "mono8; jpeg compressed mono8")
+            difference = rect_difference(msg, decoded, cv2.INTER_LINEAR)
+            require(difference <= 2, f"image_rect differs from OpenCV's by {difference}")
+            note(f"|image_rect - OpenCV imdecode + remap| <= {difference}")
+
+        with checks.check(label, "bad input: a truncated JPEG is logged, the node goes on"):
+            r.send(jpeg.tobytes()[:200], "mono8; jpeg compressed mono8")
+            warning = peer.wait_until(
+                lambda: next((m for m in rosout.messages if m.name == "camz.rectify_node"
+                              and "image_raw/compressed" in m.msg
+                              and "jpeg data could not be decoded" in m.msg), None),
+                "a /rosout warning naming the topic and the undecodable JPEG", timeout=20)
+            require(warning.level == Log.WARN, f"level {warning.level}: {warning.msg}")
+            r.exchange(png.tobytes(), "rgb8; png compressed rgb8")
+    finally:
+        stop_and_check(checks, peer, r.process, label, r.name, r.namespace)
 
 
 def rect_difference(msg, raw, interpolation):
@@ -1251,6 +1351,7 @@ def main():
         try:
             if args.only in (None, "rectify"):
                 check_rectify(checks, peer, rosout, args.rectify_node)
+                check_rectify_compressed(checks, peer, rosout, args.rectify_node)
             if args.only in (None, "calibrate"):
                 check_calibrate(checks, peer, rosout, args.calibrate_node, args.stereocal)
             if args.only in (None, "pose"):

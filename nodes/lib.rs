@@ -14,6 +14,7 @@ pub mod composition;
 pub mod convert;
 pub mod draw;
 pub mod handeye;
+pub mod image_transport;
 pub mod pose;
 pub mod rectify;
 pub mod target_params;

@@ -11,6 +11,7 @@ mod bundled_bags;
 mod calibrate;
 mod common;
 mod composition;
+mod compressed;
 mod handeye;
 mod node_config;
 mod play;

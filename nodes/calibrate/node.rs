@@ -32,6 +32,7 @@ use stereocal_runtime::sync::SyncPolicy;
 use super::session::CalibrationSession;
 use super::settings::{declare, settings};
 use super::worker::{CalibrateWorker, Endpoints, Service};
+use crate::image_transport::image_stream;
 
 /// Runs the calibrate node until SIGINT/SIGTERM, with `args` the command line without
 /// the program name (`--ros-args` remaps, parameters, params files).
@@ -71,7 +72,13 @@ where
     };
     let mut inputs = Inputs::<Arc<Image>, ()>::new(policy);
     for topic in &image_topics {
-        inputs = inputs.stream::<Image>(&mut node, topic, qos::sensor_data(depth))?;
+        inputs = image_stream(
+            inputs,
+            &mut node,
+            settings.image_transport,
+            topic,
+            qos::sensor_data(depth),
+        )?;
     }
     let mut annotated = Vec::new();
     for topic in &annotated_topics {

@@ -13,14 +13,12 @@ use anyhow::{Context, bail};
 use indicatif::ProgressBar;
 use rayon::prelude::*;
 use stereocal_msgs::builtin_interfaces::Time;
-use stereocal_msgs::cdr;
-use stereocal_msgs::sensor_msgs::Image as ImageMsg;
 use stereocal_rosbag::{BagReader, TopicFilter};
 use stereocal_vision::board::{Detection, Gray, MIN_CHARUCO_CORNERS, Target, TargetDetector};
 use stereocal_vision::calib::quality::{EdgeLayout, FrameChecks};
 
 use super::stage::{CameraFrames, Frame, FrameCorners};
-use crate::convert::image_from_msg;
+use crate::convert::{ImageKind, image_from_msg};
 
 /// A camera to calibrate: its name and image topic.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -29,11 +27,14 @@ pub struct CameraTopic {
     pub name: String,
     /// Its image topic in the bag.
     pub topic: String,
+    /// Raw or compressed images.
+    pub kind: ImageKind,
 }
 
-/// An image waiting for detection: camera index, and the raw message.
+/// An image waiting for detection: camera index, the kind of message, and its CDR bytes.
 struct Pending {
     camera: usize,
+    kind: ImageKind,
     data: Vec<u8>,
 }
 
@@ -76,6 +77,7 @@ pub fn judge_bag_frames(
         if let Some(camera) = cameras.iter().position(|c| *c.topic == *message.topic) {
             batch.push(Pending {
                 camera,
+                kind: cameras[camera].kind,
                 data: message.data,
             });
         }
@@ -121,7 +123,7 @@ impl Judge<'_> {
     /// the message cannot be decoded at all (no stamp to report it under), after saying
     /// so on stderr.
     fn detect(&self, pending: &Pending, progress: &ProgressBar) -> Option<Detected> {
-        let message = match cdr::from_bytes::<ImageMsg>(&pending.data) {
+        let message = match pending.kind.decode(&pending.data) {
             Ok(message) => message,
             Err(e) => {
                 progress.suspend(|| eprintln!("skipped an undecodable image message: {e}"));

@@ -14,6 +14,7 @@ use stereocal_vision::calib::quality::DEFAULT_MAX_BLUR;
 use stereocal_vision::camera::DistortionModel;
 
 use super::session::SessionConfig;
+use crate::image_transport::{self, Transport, transport};
 use crate::target_params::{declare_target, target_from_params};
 
 /// Everything the node was configured with, checked.
@@ -27,6 +28,8 @@ pub struct CalibrateSettings {
     pub slop: Duration,
     /// Frames kept per topic while waiting for pairing.
     pub queue_size: usize,
+    /// How images arrive.
+    pub image_transport: Transport,
     /// Calibrate without being asked once coverage is ready.
     pub auto_calibrate: bool,
     /// Folder of the session's samples.
@@ -97,6 +100,7 @@ pub fn declare(builder: NodeBuilder) -> NodeBuilder {
             "frames kept per topic while waiting for pairing",
         )
         .integer_range(1..=1000),
+        image_transport::spec(),
     ]
     .into_iter()
     .fold(declare_target(builder), NodeBuilder::param)
@@ -161,6 +165,7 @@ pub fn settings(node: &RosNode) -> anyhow::Result<CalibrateSettings> {
         stereo,
         slop: Duration::try_from_secs_f64(slop).map_err(|e| param_error("slop", e))?,
         queue_size: usize::try_from(node.param_i64("queue_size")?).context("queue_size")?,
+        image_transport: transport(node)?,
         auto_calibrate: node.param_bool("auto_calibrate")?,
         state_dir,
         camera_info_paths,

@@ -10,15 +10,14 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use stereocal_msgs::RosMessage;
 use stereocal_msgs::atomic_file;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
-use stereocal_msgs::sensor_msgs::Image as ImageMsg;
 use stereocal_rosbag::BagReader;
 use stereocal_vision::board::{PatternArgs, detector_for};
 use stereocal_vision::calib::quality::{DEFAULT_MAX_BLUR, FrameChecks};
 use stereocal_vision::camera::DistortionModel;
 
+use super::image_topics::{image_kind, image_topics};
 use crate::calibrate::offline::{CameraTopic, judge_bag_frames};
 use crate::calibrate::report::{ReportInputs, read_sample, sample_stamp, write_report};
 use crate::calibrate::result::{CalibrationResult, row_major};
@@ -234,43 +233,35 @@ fn frame_checks(args: &CalibrateArgs) -> anyhow::Result<FrameChecks> {
 
 /// The cameras to calibrate: name and image topic.
 fn choose_cameras(reader: &BagReader, args: &CalibrateArgs) -> anyhow::Result<Vec<CameraTopic>> {
-    let image_topics = reader.topics_of_type(ImageMsg::TYPE_NAME);
+    let image_topics = image_topics(reader);
     let listed = if image_topics.is_empty() {
         "none".to_owned()
     } else {
         image_topics.join(", ")
     };
-    let camera = |name: &str, topic: &str| CameraTopic {
-        name: name.to_owned(),
-        topic: topic.to_owned(),
-    };
-    let cameras = match (&args.topic, &args.left, &args.right) {
-        (Some(topic), _, _) => vec![camera(&args.name, topic)],
-        (None, Some(left), Some(right)) => vec![camera("left", left), camera("right", right)],
+    let chosen: Vec<(&str, &str)> = match (&args.topic, &args.left, &args.right) {
+        (Some(topic), _, _) => vec![(&args.name, topic)],
+        (None, Some(left), Some(right)) => vec![("left", left), ("right", right)],
         _ => match image_topics.as_slice() {
-            [topic] => vec![camera(&args.name, topic)],
+            [topic] => vec![(&args.name, topic)],
             [a, b] if a.contains("left") && b.contains("right") => {
-                vec![camera("left", a), camera("right", b)]
+                vec![("left", a), ("right", b)]
             }
             [a, b] if b.contains("left") && a.contains("right") => {
-                vec![camera("left", b), camera("right", a)]
+                vec![("left", b), ("right", a)]
             }
             _ => bail!(
                 "cannot tell which image topics to calibrate (image topics in the bag: {listed}): give --topic T for a mono camera or --left T --right T for a stereo pair"
             ),
         },
     };
-    for CameraTopic { topic, .. } in &cameras {
-        match reader.topic(topic) {
-            Some(t) if t.type_name == ImageMsg::TYPE_NAME => {}
-            Some(t) => bail!(
-                "topic {topic} carries {}, not sensor_msgs/msg/Image; image topics in the bag: {listed}",
-                t.type_name
-            ),
-            None => {
-                bail!("the bag has no topic {topic}; image topics in the bag: {listed}")
-            }
-        }
+    let mut cameras = Vec::with_capacity(chosen.len());
+    for (name, topic) in chosen {
+        cameras.push(CameraTopic {
+            name: name.to_owned(),
+            topic: topic.to_owned(),
+            kind: image_kind(reader, topic).map_err(anyhow::Error::msg)?,
+        });
     }
     Ok(cameras)
 }

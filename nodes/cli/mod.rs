@@ -4,6 +4,7 @@
 pub mod calibrate;
 pub mod demo;
 pub mod handeye;
+pub mod image_topics;
 pub mod node;
 pub mod play;
 pub mod pose;

@@ -27,7 +27,8 @@ use stereocal_vision::board::PatternArgs;
 use stereocal_vision::pnp::PoseOptions;
 
 use super::calibrate::CharucoArgs;
-use crate::convert::{pose_msg, transform_msg};
+use super::image_topics::{image_kind, image_topics};
+use crate::convert::{ImageKind, base_topic, pose_msg, transform_msg};
 use crate::pose::record::FrameRecord;
 use crate::pose::stage::{FramePose, PoseRejection, PoseStage};
 
@@ -223,7 +224,10 @@ pub fn pose_bag(args: &PoseArgs, progress: &ProgressBar) -> anyhow::Result<PoseR
         .with_context(|| format!("opening the bag {}", args.bag.display()))?;
     let input = FrameInput::open(&reader, args.topic.as_deref(), args.camera_info.as_deref())?;
     let topic = input.topic.clone();
-    let ns = topic.rsplit_once('/').map_or("", |(ns, _)| ns).to_owned();
+    let ns = base_topic(&topic)
+        .rsplit_once('/')
+        .map_or("", |(ns, _)| ns)
+        .to_owned();
     let pose_topic_name = format!("{ns}/target_pose");
     if reader.topic(&pose_topic_name).is_some() {
         bail!("the input bag already has {pose_topic_name}");
@@ -357,6 +361,8 @@ pub struct SolvedFrame {
 pub struct FrameInput {
     /// The image topic.
     pub topic: String,
+    /// Raw or compressed images.
+    kind: ImageKind,
     /// The camera_info topic beside it, `<ns>/camera_info`.
     info_topic: String,
     /// The camera_info from a file, used for every image instead of the bag's.
@@ -375,7 +381,11 @@ impl FrameInput {
         camera_info_file: Option<&Path>,
     ) -> anyhow::Result<Self> {
         let topic = image_topic(reader, asked)?;
-        let ns = topic.rsplit_once('/').map_or("", |(ns, _)| ns).to_owned();
+        let kind = image_kind(reader, &topic).map_err(anyhow::Error::msg)?;
+        let ns = base_topic(&topic)
+            .rsplit_once('/')
+            .map_or("", |(ns, _)| ns)
+            .to_owned();
         let info_topic = format!("{ns}/camera_info");
         let (fixed_info, camera_info_source) = match camera_info_file {
             Some(file) => (
@@ -393,6 +403,7 @@ impl FrameInput {
         };
         Ok(Self {
             topic,
+            kind,
             info_topic,
             fixed_info,
             camera_info_source,
@@ -429,7 +440,7 @@ impl FrameInput {
             if *message.topic == self.topic {
                 pending.push_back(Pending {
                     log_time_ns: message.log_time_ns,
-                    image: cdr::from_bytes::<ImageMsg>(&message.data).map_err(|e| e.to_string()),
+                    image: self.kind.decode(&message.data),
                 });
             } else if fixed_info.is_none() && *message.topic == self.info_topic {
                 match cdr::from_bytes::<CameraInfo>(&message.data) {
@@ -463,7 +474,7 @@ impl FrameInput {
 
 /// The image topic: the one asked for, or the bag's only one.
 fn image_topic(reader: &BagReader, asked: Option<&str>) -> anyhow::Result<String> {
-    let image_topics = reader.topics_of_type(ImageMsg::TYPE_NAME);
+    let image_topics = image_topics(reader);
     let listed = if image_topics.is_empty() {
         "none".to_owned()
     } else {

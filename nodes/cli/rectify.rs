@@ -17,6 +17,8 @@ use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
+use super::image_topics::image_topics;
+use crate::convert::{ImageKind, base_topic};
 use crate::rectify::stage::{Rectified, Rectifier};
 use stereocal_rosbag::{
     BagReader, BagWriter, ChunkCompression, OfferedQos, TopicFilter, TopicId, WriterOptions,
@@ -221,6 +223,10 @@ enum InfoSource {
 /// One image topic being rectified.
 struct Camera {
     image_topic: String,
+    /// Raw or compressed images.
+    kind: ImageKind,
+    /// How much this stream is preferred among those of one camera.
+    preference: (bool, bool),
     rect_topic: String,
     rect_id: TopicId,
     source: InfoSource,
@@ -329,14 +335,14 @@ pub fn rectify_bag(
         for camera in cameras.iter_mut() {
             if *message.topic == camera.image_topic {
                 camera.frames += 1;
-                match cdr::from_bytes::<ImageMsg>(&message.data) {
+                match camera.kind.decode(&message.data) {
                     Ok(image) => camera.pending.push_back((
                         message.log_time_ns,
                         message.publish_time_ns,
                         image,
                     )),
                     Err(e) => {
-                        problems.report(&message.topic, message.log_time_ns, e.to_string());
+                        problems.report(&message.topic, message.log_time_ns, e);
                         progress.inc(1);
                     }
                 }
@@ -392,13 +398,13 @@ fn plan_cameras(
     options: &BagRectifyOptions,
     writer: &mut BagWriter,
 ) -> anyhow::Result<(Vec<Camera>, Vec<UnrectifiedTopic>)> {
-    let image_topics = reader.topics_of_type(ImageMsg::TYPE_NAME);
+    let image_topics = image_topics(reader);
     for (topic, _) in &options.camera_infos {
         let names_image = image_topics.contains(&topic.as_str());
         let names_info = topic.ends_with("/camera_info")
             && image_topics
                 .iter()
-                .any(|t| namespace(t) == namespace(topic));
+                .any(|t| namespace(base_topic(t)) == namespace(topic));
         if !names_image && !names_info {
             bail!(
                 "--camera-info {topic}: the bag has no image topic {topic} nor image topics beside it (image topics: {})",
@@ -409,13 +415,20 @@ fn plan_cameras(
     let mut cameras: Vec<Camera> = Vec::new();
     let mut unrectified = Vec::new();
     for &topic in &image_topics {
-        let ns = namespace(topic);
+        let Some(kind) = reader
+            .topic(topic)
+            .and_then(|t| ImageKind::of_type(&t.type_name))
+        else {
+            continue;
+        };
+        let base = base_topic(topic);
+        let ns = namespace(base);
         let info_topic = format!("{ns}/camera_info");
         let given = options
             .camera_infos
             .iter()
             .find(|(t, _)| t == topic || *t == info_topic);
-        let leaf = &topic[ns.len()..];
+        let leaf = &base[ns.len()..];
         let conventional = leaf == "/image_raw" || leaf == "/image";
         let (source, source_label) = match given {
             Some((t, info)) => (
@@ -444,9 +457,11 @@ fn plan_cameras(
             },
         };
         let rect_topic = format!("{ns}/image_rect");
+        // Of the streams of one camera, the pipeline's input is the raw one: image_raw
+        // before image, uncompressed before compressed.
+        let preference = (leaf == "/image_raw", kind == ImageKind::Raw);
         if let Some(other) = cameras.iter().find(|c| c.rect_topic == rect_topic) {
-            // image_raw sorts after image: keep the raw stream, as the pipeline's input.
-            if leaf == "/image_raw" {
+            if preference > other.preference {
                 unrectified.push(UnrectifiedTopic {
                     topic: other.image_topic.clone(),
                     reason: format!("{topic} is rectified into {rect_topic} instead"),
@@ -472,6 +487,8 @@ fn plan_cameras(
             writer.add_topic(&rect_topic, ImageMsg::TYPE_NAME, &ImageMsg::schema_text())?;
         cameras.push(Camera {
             image_topic: topic.to_owned(),
+            kind,
+            preference,
             rect_topic,
             rect_id,
             source,

@@ -13,6 +13,8 @@
 
 use std::io::Cursor;
 
+use stereocal_msgs::RosMessage;
+use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CompressedImage, Image};
 use thiserror::Error;
 use zune_jpeg::JpegDecoder;
@@ -133,6 +135,48 @@ impl Format {
             });
         Self { original, codec }
     }
+}
+
+/// The two kinds of image message: raw, and compressed (image_transport's
+/// `<base topic>/compressed`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageKind {
+    /// `sensor_msgs/msg/Image`.
+    Raw,
+    /// `sensor_msgs/msg/CompressedImage`.
+    Compressed,
+}
+
+impl ImageKind {
+    /// The kind of a topic of type `type_name`, if it carries images.
+    pub fn of_type(type_name: &str) -> Option<Self> {
+        if type_name == Image::TYPE_NAME {
+            Some(Self::Raw)
+        } else if type_name == CompressedImage::TYPE_NAME {
+            Some(Self::Compressed)
+        } else {
+            None
+        }
+    }
+
+    /// The `sensor_msgs/Image` of a CDR message of this kind, decompressed; the error
+    /// says what was wrong.
+    pub fn decode(self, cdr_bytes: &[u8]) -> Result<Image, String> {
+        match self {
+            Self::Raw => cdr::from_bytes::<Image>(cdr_bytes).map_err(|e| e.to_string()),
+            Self::Compressed => {
+                let msg =
+                    cdr::from_bytes::<CompressedImage>(cdr_bytes).map_err(|e| e.to_string())?;
+                image_msg_from_compressed(&msg).map_err(|e| e.to_string())
+            }
+        }
+    }
+}
+
+/// The base topic of an image topic, as image_transport names them: `/cam/image_raw`
+/// for `/cam/image_raw/compressed`, the topic itself otherwise.
+pub fn base_topic(topic: &str) -> &str {
+    topic.strip_suffix("/compressed").unwrap_or(topic)
 }
 
 /// Decodes `msg` into a `sensor_msgs/Image` with its header (see the module's

@@ -15,6 +15,8 @@ pub use camera_info::{
     CalibratedCamera, CameraInfoError, calibrated_camera_from_info, info_from_calibrated,
     info_from_raw_camera,
 };
-pub use compressed::{Codec, CompressedError, Format, image_msg_from_compressed};
+pub use compressed::{
+    Codec, CompressedError, Format, ImageKind, base_topic, image_msg_from_compressed,
+};
 pub use image::{Encoding, ImageMsgError, decode_image_into, image_from_msg, msg_from_image};
 pub use pose::{isometry_from_pose_msg, pose_msg, pose_with_covariance_msg, transform_msg};

@@ -1,7 +1,8 @@
 //! The hand-eye node: a headless hand-eye calibration session that never loses a
 //! sample. Runs as the `handeye_node` executable and as `stereocal node handeye`.
 //!
-//! The target's pose comes from `image` + `camera_info` (`target_source: image`, the
+//! The target's pose comes from `image` (or `image/compressed` with `image_transport:
+//! compressed`) + `camera_info` (`target_source: image`, the
 //! target found as pose_node finds it, with the corners kept for the joint refinement)
 //! or from `target_pose` (`target_source: pose`, geometry_msgs/PoseStamped
 //! `camera_from_target`, e.g. pose_node's). The robot's pose comes from `/tf` and
@@ -29,7 +30,7 @@
 
 use anyhow::Context;
 use stereocal_msgs::geometry_msgs::PoseStamped;
-use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
+use stereocal_msgs::sensor_msgs::CameraInfo;
 use stereocal_msgs::std_msgs;
 use stereocal_runtime::node::NodeBuilder;
 use stereocal_runtime::qos;
@@ -40,6 +41,7 @@ use stereocal_runtime::sync::SyncPolicy;
 use super::settings::{RobotSource, TargetSource, declare, settings};
 use super::store::SampleStore;
 use super::worker::{Endpoints, HandEyeWorker, RobotInputs, Service};
+use crate::image_transport::image_stream;
 
 /// Robot poses (or `/tf` messages) kept until the worker takes them: a second of a
 /// 1 kHz stream while the worker finds a target.
@@ -58,9 +60,14 @@ where
         .with_context(|| format!("state_dir {}", settings.state_dir.display()))?;
     let depth = settings.queue_size;
     let inputs = match &settings.target {
-        TargetSource::Image(_) => Inputs::new(SyncPolicy::exact(depth))
-            .stream::<Image>(&mut node, "image", qos::sensor_data(depth))?
-            .latched::<CameraInfo>(&mut node, "camera_info", qos::sensor_data(depth))?,
+        TargetSource::Image(_) => image_stream(
+            Inputs::new(SyncPolicy::exact(depth)),
+            &mut node,
+            settings.image_transport,
+            "image",
+            qos::sensor_data(depth),
+        )?
+        .latched::<CameraInfo>(&mut node, "camera_info", qos::sensor_data(depth))?,
         TargetSource::Pose => Inputs::new(SyncPolicy::exact(depth)).stream::<PoseStamped>(
             &mut node,
             "target_pose",

@@ -13,6 +13,7 @@ use stereocal_vision::handeye::{RefineOptions, Setup};
 use stereocal_vision::pnp::PoseOptions;
 
 use super::session::{FIRST_PIXEL_NOISE_PX, Weights};
+use crate::image_transport::{self, Transport, transport};
 use crate::pose::stage::PoseStage;
 use crate::target_params::{declare_target, target_from_params};
 
@@ -52,6 +53,8 @@ pub struct HandEyeSettings {
     pub target: TargetSource,
     /// Images are rectified: seen through camera_info's `P`, not `K` and `D`.
     pub image_is_rectified: bool,
+    /// How images arrive.
+    pub image_transport: Transport,
     /// Where robot poses come from.
     pub robot: RobotSource,
     /// The robot's base frame; empty: the robot pose topic's frame_id.
@@ -116,6 +119,7 @@ pub fn declare(builder: NodeBuilder) -> NodeBuilder {
         string("state_dir", "", "folder where samples persist; empty: $ROS_HOME/stereocal/<node name>"),
         string("calibration_file", "", "where ~/save writes the result (report.html goes beside it); empty: <state_dir>/handeye.yaml"),
         ParamSpec::new("queue_size", ParameterValue::Integer(5), "frames kept per topic while waiting for pairing").integer_range(1..=1000),
+        image_transport::spec(),
     ]
     .into_iter()
     .fold(declare_target(builder), NodeBuilder::param)
@@ -188,6 +192,7 @@ pub fn settings(node: &RosNode) -> anyhow::Result<HandEyeSettings> {
         setup,
         target,
         image_is_rectified: node.param_bool("image_is_rectified")?,
+        image_transport: transport(node)?,
         robot,
         base_frame,
         tool_frame,

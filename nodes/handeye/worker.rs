@@ -46,8 +46,9 @@ const STATUS_PERIOD: Duration = Duration::from_secs(1);
 const PAIRING_WAIT: Duration = Duration::from_secs(2);
 /// Target poses kept waiting for robot poses; the oldest goes unpaired beyond this.
 const MAX_PENDING: usize = 100;
-/// The newest paired frame is too old to sample after this long without another.
-const MAX_CANDIDATE_AGE: Duration = Duration::from_secs(2);
+/// The newest paired frame is too old to sample after this long without another (a
+/// camera that stopped): the operator's pose is no longer the one it shows.
+const MAX_CANDIDATE_AGE: Duration = Duration::from_secs(10);
 
 /// A frame of the target as the skeleton delivers it: an image (with the camera_info
 /// of its stamp beside it in the set), or a pose already measured.
@@ -148,6 +149,8 @@ struct Candidate {
     base_from_tool: Isometry3<f64>,
     /// How far the robot moved before the stamp, or why that is unknown.
     moved: Result<Motion, String>,
+    /// When it was paired.
+    paired: Instant,
 }
 
 /// The newest frame's outcome.
@@ -331,6 +334,7 @@ impl HandEyeWorker {
                         observation,
                         base_from_tool,
                         moved,
+                        paired: Instant::now(),
                     })));
                     if self.settings.auto_sample {
                         self.sample_automatically();
@@ -370,7 +374,7 @@ impl HandEyeWorker {
     /// Why no sample can be taken from `candidate` now, if not.
     fn refusal(&self, candidate: &Candidate) -> Option<String> {
         let still = &self.settings.stillness;
-        if candidate.observation.received.elapsed() > MAX_CANDIDATE_AGE {
+        if candidate.paired.elapsed() > MAX_CANDIDATE_AGE {
             return Some(format!(
                 "no target frame paired with a robot pose in the last {} s",
                 MAX_CANDIDATE_AGE.as_secs()

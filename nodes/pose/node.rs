@@ -2,8 +2,8 @@
 //! for a whole board, with covariance and without ever publishing a pose it cannot
 //! stand behind. Runs as the `pose_node` executable and as `stereocal node pose`.
 //!
-//! Subscribes `image` (sensor_msgs/Image) and `camera_info` (sensor_msgs/CameraInfo),
-//! paired by equal stamps. For each image it detects the target (`pattern`, `size`,
+//! Subscribes `image` (sensor_msgs/Image; `image/compressed` with `image_transport:
+//! compressed`) and `camera_info` (sensor_msgs/CameraInfo), paired by equal stamps. For each image it detects the target (`pattern`, `size`,
 //! `square`, `marker_size`, `dictionary`, as calibrate_node) and publishes, stamped with
 //! the image's stamp and in the camera's frame (`camera_frame`, or the image's
 //! `frame_id` when empty):
@@ -43,6 +43,7 @@ use super::status::PoseStatus;
 use crate::convert::{
     Encoding, image_from_msg, msg_from_image, pose_msg, pose_with_covariance_msg, transform_msg,
 };
+use crate::image_transport::{self, image_stream, transport};
 use crate::target_params::{declare_target, target_from_params};
 
 /// How often `~/status` is published while frames arrive.
@@ -219,6 +220,7 @@ fn declare(builder: NodeBuilder) -> NodeBuilder {
             "frames kept per topic while waiting for pairing, and waiting for the pose",
         )
         .integer_range(1..=1000),
+        image_transport::spec(),
     ]
     .into_iter()
     .fold(declare_target(builder), NodeBuilder::param)
@@ -247,9 +249,15 @@ where
     let mut node = declare(NodeBuilder::new("pose_node")).start(args)?;
     let stage = stage_from_params(&node)?;
     let queue_size = usize::try_from(node.param_i64("queue_size")?).context("queue_size")?;
-    let inputs = Inputs::new(SyncPolicy::exact(queue_size))
-        .stream::<Image>(&mut node, "image", qos::sensor_data(queue_size))?
-        .latched::<CameraInfo>(&mut node, "camera_info", qos::sensor_data(queue_size))?;
+    let transport = transport(&node)?;
+    let inputs = image_stream(
+        Inputs::new(SyncPolicy::exact(queue_size)),
+        &mut node,
+        transport,
+        "image",
+        qos::sensor_data(queue_size),
+    )?
+    .latched::<CameraInfo>(&mut node, "camera_info", qos::sensor_data(queue_size))?;
     let publishers = Publishers {
         pose: node.advertise("target_pose", qos::reliable(queue_size))?,
         pose_with_covariance: node

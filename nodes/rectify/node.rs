@@ -3,9 +3,10 @@
 //!
 //! Subscribes `image` (sensor_msgs/Image) and `camera_info` (sensor_msgs/CameraInfo),
 //! pairs them by stamp, and publishes `image_rect` in the input's encoding. Parameters:
-//! `interpolation` (0 nearest, 1 linear, 2 cubic; may change while running) and
+//! `interpolation` (0 nearest, 1 linear, 2 cubic; may change while running),
 //! `queue_size` (frames kept on each topic and between receiving and rectifying; older
-//! frames are dropped and counted when rectifying falls behind).
+//! frames are dropped and counted when rectifying falls behind) and `image_transport`
+//! (`compressed` reads `image/compressed`, see [`crate::image_transport`]).
 
 use std::sync::Arc;
 
@@ -18,6 +19,8 @@ use stereocal_runtime::publisher::TopicPublisher;
 use stereocal_runtime::qos;
 use stereocal_runtime::skeleton::{self, FrameStats, Inputs, Worker};
 use stereocal_runtime::sync::{SyncPolicy, Synced};
+
+use crate::image_transport::{self, image_stream, transport};
 use stereocal_runtime::throttle::Throttle;
 use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
@@ -87,6 +90,7 @@ where
     S: Into<String>,
 {
     let mut node = NodeBuilder::new("rectify_node")
+        .param(image_transport::spec())
         .param(
             ParamSpec::new(
                 "interpolation",
@@ -106,9 +110,15 @@ where
         )
         .start(args)?;
     let queue_size = usize::try_from(node.param_i64("queue_size")?).context("queue_size")?;
-    let inputs = Inputs::new(SyncPolicy::exact(queue_size))
-        .stream::<Image>(&mut node, "image", qos::sensor_data(queue_size))?
-        .latched::<CameraInfo>(&mut node, "camera_info", qos::sensor_data(queue_size))?;
+    let transport = transport(&node)?;
+    let inputs = image_stream(
+        Inputs::new(SyncPolicy::exact(queue_size)),
+        &mut node,
+        transport,
+        "image",
+        qos::sensor_data(queue_size),
+    )?
+    .latched::<CameraInfo>(&mut node, "camera_info", qos::sensor_data(queue_size))?;
     let worker = RectifyWorker {
         publisher: node.advertise::<Image>("image_rect", qos::reliable(queue_size))?,
         rectifier: None,

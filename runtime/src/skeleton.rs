@@ -162,6 +162,43 @@ impl<F: 'static, C: 'static> Inputs<F, C> {
         })
     }
 
+    /// Subscribes stream `topic` (resolved for `node`) of messages that become frames
+    /// through `decode`, e.g. compressed images decompressed; a message `decode` refuses
+    /// is logged, throttled, with its reason, and counts as undecodable. Numbered with
+    /// the other streams.
+    pub fn stream_decoded<M>(
+        mut self,
+        node: &mut RosNode,
+        topic: &str,
+        qos: QosProfile,
+        decode: impl Fn(&M) -> std::result::Result<F, String> + 'static,
+    ) -> Result<Self>
+    where
+        M: RosMessage + Stamped + DeserializeOwned + Send + Sync + 'static,
+    {
+        let stream = self.streams;
+        self.streams += 1;
+        let resolved = node.resolve_topic(topic)?;
+        self.add(node, topic, qos, move |arrival: Arrival<M>| {
+            let (message, origin) = match &arrival {
+                Arrival::Dds(message, writer, sequence) => (message, Some((*writer, *sequence))),
+                Arrival::Shared(message) => (&**message, None),
+            };
+            match decode(message) {
+                Ok(frame) => Incoming::Frame {
+                    stream,
+                    stamp: message.stamp(),
+                    frame,
+                    origin,
+                },
+                Err(error) => Incoming::Undecodable {
+                    topic: resolved.clone(),
+                    error,
+                },
+            }
+        })
+    }
+
     /// Subscribes latched input `topic` (resolved for `node`): every synchronized set
     /// takes its item of the set's stamp, or its latest. Latched inputs are numbered in
     /// the order they are added.

@@ -4,12 +4,12 @@
 
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::cdr;
-use stereocal_msgs::sensor_msgs::Image as ImageMsg;
+use stereocal_msgs::sensor_msgs::{CompressedImage, Image as ImageMsg};
 use stereocal_vision::image::Image;
 
 use super::ReportError;
 use crate::calibrate::stage::CalibrationOutcome;
-use crate::convert::{Encoding, image_from_msg};
+use crate::convert::{Encoding, ImageKind, image_from_msg, image_msg_from_compressed};
 use stereocal_rosbag::{BagReader, TopicFilter};
 
 /// One camera's raw image.
@@ -48,6 +48,14 @@ pub fn read_sample(
     stamp: Time,
 ) -> Result<Option<SampleImages>, ReportError> {
     let mut images: Vec<Option<SampleImage>> = vec![None; topics.len()];
+    let kinds: Vec<Option<ImageKind>> = topics
+        .iter()
+        .map(|t| {
+            reader
+                .topic(t)
+                .and_then(|i| ImageKind::of_type(&i.type_name))
+        })
+        .collect();
     let filter = TopicFilter::only(topics.iter().map(String::as_str));
     for message in reader.messages(&filter) {
         let message = message?;
@@ -57,12 +65,9 @@ pub fn read_sample(
         if images[camera].is_some() {
             continue;
         }
-        let Ok(msg) = cdr::from_bytes::<ImageMsg>(&message.data) else {
+        let Some(msg) = image_at(kinds[camera], &message.data, stamp) else {
             continue;
         };
-        if msg.header.stamp != stamp {
-            continue;
-        }
         if let Ok((encoding, image)) = image_from_msg(&msg) {
             images[camera] = Some(SampleImage { encoding, image });
         }
@@ -74,4 +79,18 @@ pub fn read_sample(
         .into_iter()
         .collect::<Option<Vec<_>>>()
         .map(|images| SampleImages { stamp, images }))
+}
+
+/// The image of a CDR message of `kind` when it is stamped `stamp`; a compressed image
+/// is decompressed only then.
+fn image_at(kind: Option<ImageKind>, data: &[u8], stamp: Time) -> Option<ImageMsg> {
+    match kind? {
+        ImageKind::Raw => cdr::from_bytes::<ImageMsg>(data)
+            .ok()
+            .filter(|msg| msg.header.stamp == stamp),
+        ImageKind::Compressed => cdr::from_bytes::<CompressedImage>(data)
+            .ok()
+            .filter(|msg| msg.header.stamp == stamp)
+            .and_then(|msg| image_msg_from_compressed(&msg).ok()),
+    }
 }
