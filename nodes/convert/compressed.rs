@@ -236,11 +236,11 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
         .set_max_width(MAX_SIDE)
         .set_max_height(MAX_SIDE)
         .set_strict_mode(true);
-    let mut probe = JpegDecoder::new_with_options(ZCursor::new(data), options);
-    probe
+    let mut decoder = JpegDecoder::new_with_options(ZCursor::new(data), options);
+    decoder
         .decode_headers()
         .map_err(|e| corrupt(Codec::Jpeg)(e.to_string()))?;
-    let grey = probe.input_colorspace() == Some(ColorSpace::Luma);
+    let grey = decoder.input_colorspace() == Some(ColorSpace::Luma);
     let encoding = match original {
         Some(Encoding::Mono16) => {
             return Err(CompressedError::Unconvertible {
@@ -253,15 +253,14 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
         None if grey => Encoding::Mono8,
         None => Encoding::Bgr8,
     };
+    // zune-jpeg converts colour to RGB and RGBA with SIMD, to BGR and BGRA without:
+    // RGB and a swap of red and blue is the faster way to BGR.
     let colorspace = match encoding {
         Encoding::Mono8 => ColorSpace::Luma,
         Encoding::Rgba8 | Encoding::Bgra8 => ColorSpace::RGBA,
         _ => ColorSpace::RGB,
     };
-    let mut decoder = JpegDecoder::new_with_options(
-        ZCursor::new(data),
-        options.jpeg_set_out_colorspace(colorspace),
-    );
+    decoder.set_options(options.jpeg_set_out_colorspace(colorspace));
     let mut pixels = decoder
         .decode()
         .map_err(|e| corrupt(Codec::Jpeg)(e.to_string()))?;

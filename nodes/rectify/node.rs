@@ -90,7 +90,6 @@ where
     S: Into<String>,
 {
     let mut node = NodeBuilder::new("rectify_node")
-        .param(image_transport::spec())
         .param(
             ParamSpec::new(
                 "interpolation",
@@ -108,6 +107,7 @@ where
             )
             .integer_range(1..=1000),
         )
+        .param(image_transport::spec())
         .start(args)?;
     let queue_size = usize::try_from(node.param_i64("queue_size")?).context("queue_size")?;
     let transport = transport(&node)?;

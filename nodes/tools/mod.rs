@@ -1,6 +1,7 @@
 //! The measuring tools: the binaries `dds_latency` (the bare DDS transport between two
-//! processes), `rectify_latency` (`rectify_node` end to end) and `composed_latency`
-//! (the stereo rectify pair composed in one process), whose sources are in this folder,
+//! processes), `rectify_latency` (`rectify_node` end to end), `composed_latency`
+//! (the stereo rectify pair composed in one process) and `decode_timing`
+//! (CompressedImage decoding), whose sources are in this folder,
 //! and what they share with the replay of bags through nodes: image geometries to
 //! measure, the synthetic [`camera`], the reliability of an endpoint, and latency
 //! percentiles.

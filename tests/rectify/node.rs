@@ -294,7 +294,15 @@ fn parameters_are_served_described_and_checked() {
     let names = call(peer.node(), &list, ListParametersRequest::default())
         .result
         .names;
-    assert_eq!(names, ["use_sim_time", "interpolation", "queue_size"]);
+    assert_eq!(
+        names,
+        [
+            "use_sim_time",
+            "interpolation",
+            "queue_size",
+            "image_transport"
+        ]
+    );
 
     let get =
         client::<GetParametersRequest, GetParametersResponse>(peer.node_mut(), "get_parameters");
