@@ -7,10 +7,12 @@
 use std::sync::Arc;
 
 use ros2_client::{ParameterValue, QosProfile};
-use stereocal_msgs::sensor_msgs::{CompressedImage, Image};
+use stereocal_msgs::sensor_msgs::{CameraInfo, CompressedImage, Image};
 use stereocal_runtime::node::RosNode;
 use stereocal_runtime::params::ParamSpec;
+use stereocal_runtime::qos;
 use stereocal_runtime::skeleton::Inputs;
+use stereocal_runtime::sync::SyncPolicy;
 
 use crate::convert::image_msg_from_compressed;
 
@@ -70,4 +72,25 @@ where
             })?
         }
     })
+}
+
+/// The inputs of a node that sees one camera: `image` in `transport` paired by equal
+/// stamps with `camera_info`, both best-effort, `depth` frames kept per topic.
+pub fn camera_inputs<F>(
+    node: &mut RosNode,
+    transport: Transport,
+    depth: usize,
+) -> anyhow::Result<Inputs<F, CameraInfo>>
+where
+    F: From<Arc<Image>> + 'static,
+    Image: Into<F>,
+{
+    Ok(image_stream(
+        Inputs::new(SyncPolicy::exact(depth)),
+        node,
+        transport,
+        "image",
+        qos::sensor_data(depth),
+    )?
+    .latched::<CameraInfo>(node, "camera_info", qos::sensor_data(depth))?)
 }

@@ -30,7 +30,6 @@
 
 use anyhow::Context;
 use stereocal_msgs::geometry_msgs::PoseStamped;
-use stereocal_msgs::sensor_msgs::CameraInfo;
 use stereocal_msgs::std_msgs;
 use stereocal_runtime::node::NodeBuilder;
 use stereocal_runtime::qos;
@@ -41,7 +40,7 @@ use stereocal_runtime::sync::SyncPolicy;
 use super::settings::{RobotSource, TargetSource, declare, settings};
 use super::store::SampleStore;
 use super::worker::{Endpoints, HandEyeWorker, RobotInputs, Service};
-use crate::image_transport::image_stream;
+use crate::image_transport::camera_inputs;
 
 /// Robot poses (or `/tf` messages) kept until the worker takes them: a second of a
 /// 1 kHz stream while the worker finds a target.
@@ -60,14 +59,7 @@ where
         .with_context(|| format!("state_dir {}", settings.state_dir.display()))?;
     let depth = settings.queue_size;
     let inputs = match &settings.target {
-        TargetSource::Image(_) => image_stream(
-            Inputs::new(SyncPolicy::exact(depth)),
-            &mut node,
-            settings.image_transport,
-            "image",
-            qos::sensor_data(depth),
-        )?
-        .latched::<CameraInfo>(&mut node, "camera_info", qos::sensor_data(depth))?,
+        TargetSource::Image(_) => camera_inputs(&mut node, settings.image_transport, depth)?,
         TargetSource::Pose => Inputs::new(SyncPolicy::exact(depth)).stream::<PoseStamped>(
             &mut node,
             "target_pose",

@@ -31,8 +31,8 @@ use stereocal_runtime::node::{NodeBuilder, RosNode};
 use stereocal_runtime::params::ParamSpec;
 use stereocal_runtime::publisher::TopicPublisher;
 use stereocal_runtime::qos;
-use stereocal_runtime::skeleton::{self, FrameStats, Inputs, Worker};
-use stereocal_runtime::sync::{SyncPolicy, Synced};
+use stereocal_runtime::skeleton::{self, FrameStats, Worker};
+use stereocal_runtime::sync::Synced;
 use stereocal_runtime::throttle::Throttle;
 use stereocal_vision::pnp::PoseOptions;
 
@@ -43,7 +43,7 @@ use super::status::PoseStatus;
 use crate::convert::{
     Encoding, image_from_msg, msg_from_image, pose_msg, pose_with_covariance_msg, transform_msg,
 };
-use crate::image_transport::{self, image_stream, transport};
+use crate::image_transport::{self, camera_inputs, transport};
 use crate::target_params::{declare_target, target_from_params};
 
 /// How often `~/status` is published while frames arrive.
@@ -250,14 +250,7 @@ where
     let stage = stage_from_params(&node)?;
     let queue_size = usize::try_from(node.param_i64("queue_size")?).context("queue_size")?;
     let transport = transport(&node)?;
-    let inputs = image_stream(
-        Inputs::new(SyncPolicy::exact(queue_size)),
-        &mut node,
-        transport,
-        "image",
-        qos::sensor_data(queue_size),
-    )?
-    .latched::<CameraInfo>(&mut node, "camera_info", qos::sensor_data(queue_size))?;
+    let inputs = camera_inputs(&mut node, transport, queue_size)?;
     let publishers = Publishers {
         pose: node.advertise("target_pose", qos::reliable(queue_size))?,
         pose_with_covariance: node

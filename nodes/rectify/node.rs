@@ -17,10 +17,10 @@ use stereocal_runtime::node::NodeBuilder;
 use stereocal_runtime::params::ParamSpec;
 use stereocal_runtime::publisher::TopicPublisher;
 use stereocal_runtime::qos;
-use stereocal_runtime::skeleton::{self, FrameStats, Inputs, Worker};
-use stereocal_runtime::sync::{SyncPolicy, Synced};
+use stereocal_runtime::skeleton::{self, FrameStats, Worker};
+use stereocal_runtime::sync::Synced;
 
-use crate::image_transport::{self, image_stream, transport};
+use crate::image_transport::{self, camera_inputs, transport};
 use stereocal_runtime::throttle::Throttle;
 use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
@@ -111,14 +111,7 @@ where
         .start(args)?;
     let queue_size = usize::try_from(node.param_i64("queue_size")?).context("queue_size")?;
     let transport = transport(&node)?;
-    let inputs = image_stream(
-        Inputs::new(SyncPolicy::exact(queue_size)),
-        &mut node,
-        transport,
-        "image",
-        qos::sensor_data(queue_size),
-    )?
-    .latched::<CameraInfo>(&mut node, "camera_info", qos::sensor_data(queue_size))?;
+    let inputs = camera_inputs(&mut node, transport, queue_size)?;
     let worker = RectifyWorker {
         publisher: node.advertise::<Image>("image_rect", qos::reliable(queue_size))?,
         rectifier: None,

@@ -89,6 +89,24 @@ fn session() -> Session {
     }
 }
 
+/// A rendered session, its board (columns, rows, square), the node's state folder, a
+/// ROS domain of the test's own, and the test's side of the node on it.
+fn setup() -> (
+    Session,
+    (usize, usize, f64),
+    std::path::PathBuf,
+    DomainLease,
+    Player,
+) {
+    let session = session();
+    let board = &session.truth.board;
+    let board = (board.cols, board.rows, board.square_size);
+    let state_dir = session.dir.path().join("state");
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let player = Player::new(&domain);
+    (session, board, state_dir, domain, player)
+}
+
 /// The test's side of the node.
 struct Player {
     image: Publisher<Image>,
@@ -306,12 +324,7 @@ fn isometry_of_transform(t: &Transform) -> Isometry3<f64> {
 }
 
 fn run_session(robot: Robot) {
-    let session = session();
-    let board = &session.truth.board;
-    let board = (board.cols, board.rows, board.square_size);
-    let state_dir = session.dir.path().join("state");
-    let domain = DomainLease::for_test().expect("a ROS domain");
-    let mut player = Player::new(&domain);
+    let (session, board, state_dir, domain, mut player) = setup();
     let mut node = start_node(&domain, &state_dir, robot, board, &[]);
     player.wait_for("the node's first status", |p| !p.last_status.is_null());
 
@@ -454,12 +467,7 @@ fn latest_reason(player: &Player) -> String {
 
 #[test]
 fn automatic_mode_samples_each_new_still_pose_and_says_why_a_frame_cannot_be_sampled() {
-    let session = session();
-    let board = &session.truth.board;
-    let board = (board.cols, board.rows, board.square_size);
-    let state_dir = session.dir.path().join("state");
-    let domain = DomainLease::for_test().expect("a ROS domain");
-    let mut player = Player::new(&domain);
+    let (session, board, state_dir, domain, mut player) = setup();
     let node = start_node(
         &domain,
         &state_dir,
@@ -533,12 +541,7 @@ fn automatic_mode_samples_each_new_still_pose_and_says_why_a_frame_cannot_be_sam
 /// `stereocal pose` finds in the same bag.
 #[test]
 fn pose_node_feeds_handeye_node_and_the_result_matches_the_offline_commands() {
-    let session = session();
-    let board = &session.truth.board;
-    let board = (board.cols, board.rows, board.square_size);
-    let state_dir = session.dir.path().join("state");
-    let domain = DomainLease::for_test().expect("a ROS domain");
-    let mut player = Player::new(&domain);
+    let (session, board, state_dir, domain, mut player) = setup();
     let mut pose_node = Command::new(env!("CARGO_BIN_EXE_pose_node"));
     pose_node.args([
         "--ros-args",
