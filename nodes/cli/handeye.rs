@@ -363,8 +363,11 @@ pub fn handeye_bag(args: &HandEyeArgs) -> anyhow::Result<HandEyeReport> {
         (Some(_), Some(_)) => bail!("give --target-pose-topic or --image-topic, not both"),
     };
     if gathered.targets.is_empty() {
+        let first = gathered.unpaired.first().map_or(String::new(), |r| {
+            format!("; the first at {:.6} s: {}", r.stamp, r.reason)
+        });
         bail!(
-            "no target pose in {} ({} frames rejected)",
+            "no target pose in {} ({} frames rejected{first})",
             args.bag.display(),
             gathered.unpaired.len()
         );
