@@ -39,7 +39,7 @@ from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
-from pose_session import CAMERA_INFO, IMAGE_RAW, synthesize
+from pose_session import CAMERA_INFO, IMAGE_RAW, rotation_of, synthesize
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from ros2_cyclone import (
     CameraInfo, Header, Image, Quaternion, TFMessage, Time, Transform, TransformStamped,
@@ -74,15 +74,6 @@ def cyclone_tf(message):
                 rotation=Quaternion(x=t.transform.rotation.x, y=t.transform.rotation.y,
                                     z=t.transform.rotation.z, w=t.transform.rotation.w)))
         for t in message.transforms])
-
-
-def matrix_of(q):
-    x, y, z, w = q.x, q.y, q.z, q.w
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
 
 
 def main():
@@ -188,7 +179,7 @@ def check_result(transform, offline, truth, sent):
     if names != ("tool", "camera_optical_frame"):
         fail(f"/tf_static {names[0]} -> {names[1]}, expected tool -> camera_optical_frame")
     t = transform.transform
-    rotation = matrix_of(t.rotation)
+    rotation = rotation_of(t.rotation)
     translation = [t.translation.x, t.translation.y, t.translation.z]
     result = offline["results"][offline["chosen"]]
     difference = max(float(np.abs(rotation.ravel() - result["rotation"]).max()),
