@@ -551,18 +551,13 @@ fn find_poses(
             let mut gathered = gathered.borrow_mut();
             match frame.outcome {
                 Ok(pose) => {
-                    let observation =
-                        pose.detection
-                            .object_points(stage.target())
-                            .map(|target_points| {
-                                (
-                                    TargetObservation {
-                                        target_points,
-                                        pixels: pose.detection.corners.clone(),
-                                    },
-                                    pose.camera.clone(),
-                                )
-                            });
+                    let observation = Some((
+                        TargetObservation {
+                            target_points: pose.target_points,
+                            pixels: pose.detection.corners,
+                        },
+                        pose.camera,
+                    ));
                     targets_push(
                         &mut gathered,
                         stamp,

@@ -26,8 +26,9 @@ use super::image::Encoding;
 
 /// Largest width or height decoded, pixels: larger is taken as damage, not an image.
 const MAX_SIDE: usize = 1 << 15;
-/// Largest decoded size, bytes.
-const MAX_BYTES: usize = 1 << 30;
+/// Largest decoded size, bytes (an 8K colour image is 100 MB): a damaged header that
+/// declares more is refused before anything is allocated.
+const MAX_BYTES: usize = 1 << 28;
 
 /// A compression this conversion decodes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -255,6 +256,15 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
     };
     // zune-jpeg converts colour to RGB and RGBA with SIMD, to BGR and BGRA without:
     // RGB and a swap of red and blue is the faster way to BGR.
+    let (width, height) = decoder
+        .dimensions()
+        .ok_or_else(|| corrupt(Codec::Jpeg)("no dimensions in the header".into()))?;
+    let bytes = width * height * encoding.bytes_per_pixel();
+    if bytes > MAX_BYTES {
+        return Err(corrupt(Codec::Jpeg)(format!(
+            "the header declares {width}x{height}, {bytes} bytes decoded: more than {MAX_BYTES}"
+        )));
+    }
     let colorspace = match encoding {
         Encoding::Mono8 => ColorSpace::Luma,
         Encoding::Rgba8 | Encoding::Bgra8 => ColorSpace::RGBA,
@@ -264,10 +274,7 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
     let mut pixels = decoder
         .decode()
         .map_err(|e| corrupt(Codec::Jpeg)(e.to_string()))?;
-    let (width, height) = decoder
-        .dimensions()
-        .ok_or_else(|| corrupt(Codec::Jpeg)("no dimensions after decoding".into()))?;
-    if pixels.len() != width * height * encoding.bytes_per_pixel() {
+    if pixels.len() != bytes {
         return Err(corrupt(Codec::Jpeg)(format!(
             "{} bytes decoded for {width}x{height} {}",
             pixels.len(),
@@ -494,6 +501,15 @@ mod tests {
             .unwrap();
         let cut = err("jpeg", jpeg[..20].to_vec());
         assert!(cut.contains("jpeg data could not be decoded"), "{cut}");
+        // A header that declares a huge image is refused before anything is allocated.
+        let mut huge = jpeg.clone();
+        let sof = huge
+            .windows(2)
+            .position(|w| w == [0xFF, 0xC0])
+            .expect("a baseline JPEG");
+        huge[sof + 5..sof + 9].copy_from_slice(&[0x75, 0x30, 0x75, 0x30]);
+        let declared = err("jpeg", huge);
+        assert!(declared.contains("30000x30000"), "{declared}");
         let deep = err("mono16; jpeg compressed", jpeg);
         assert!(deep.contains("cannot be given as mono16"), "{deep}");
     }

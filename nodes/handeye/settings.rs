@@ -12,6 +12,7 @@ use stereocal_runtime::params::ParamSpec;
 use stereocal_vision::handeye::{RefineOptions, Setup};
 use stereocal_vision::pnp::PoseOptions;
 
+use super::robot::HISTORY_S;
 use super::session::{FIRST_PIXEL_NOISE_PX, Weights};
 use crate::image_transport::{self, Transport, transport};
 use crate::pose::stage::PoseStage;
@@ -83,9 +84,6 @@ pub struct HandEyeSettings {
     pub queue_size: usize,
 }
 
-/// Largest accepted time, seconds.
-const MAX_TIME: f64 = 60.0;
-
 /// Declares the node's parameters. All are read once at start-up, so all are
 /// read-only while the node runs.
 pub fn declare(builder: NodeBuilder) -> NodeBuilder {
@@ -107,7 +105,7 @@ pub fn declare(builder: NodeBuilder) -> NodeBuilder {
         string("tool_frame", "tool0", "the robot's tool (end-effector) frame"),
         string("camera_frame", "", "the camera's frame, child of the published transform; empty: the target messages' frame_id"),
         double("max_time_difference", 0.02, 1.0, "a target pose is paired only with robot poses this close on both sides of its stamp, seconds"),
-        double("stillness_time", 0.5, MAX_TIME, "a sample is taken only when the robot has been still this long before the image, seconds"),
+        double("stillness_time", 0.5, HISTORY_S / 2.0, "a sample is taken only when the robot has been still this long before the image, seconds"),
         double("stillness_tolerance", 0.001, 1.0, "largest robot translation that counts as still, metres"),
         double("stillness_angle_tolerance", 0.002, 1.0, "largest robot rotation that counts as still, radians"),
         ParamSpec::new("auto_sample", ParameterValue::Boolean(false), "take a sample, without ~/take_sample, whenever the robot is still, the target is seen and the pose adds rotation"),

@@ -280,15 +280,11 @@ impl HandEyeWorker {
                     .estimate(image, info)
                     .0
                     .map_err(|r| (stamp, r.to_string()))?;
-                let target_points = pose.detection.object_points(stage.target()).ok_or((
-                    stamp,
-                    "a detected corner id is not on the target".to_owned(),
-                ))?;
                 Ok(Some(Observation {
                     stamp,
                     camera_from_target: pose.estimate.camera_from_target,
                     corners: Some(StoredCorners {
-                        target_points: target_points.iter().map(|p| [p.x, p.y, p.z]).collect(),
+                        target_points: pose.target_points.iter().map(|p| [p.x, p.y, p.z]).collect(),
                         pixels: pose.detection.corners.iter().map(|p| [p.x, p.y]).collect(),
                         camera_info: CameraInfo::clone(info),
                     }),
@@ -699,7 +695,7 @@ impl HandEyeWorker {
         answered
     }
 
-    fn status(&self, stats: Option<&FrameStats>) -> HandEyeStatus {
+    fn status(&self) -> HandEyeStatus {
         let samples: Vec<Sample> = self
             .store
             .samples()
@@ -744,12 +740,6 @@ impl HandEyeWorker {
                 }
             }
         });
-        let mut frames = self.counts;
-        if let Some(stats) = stats {
-            frames.received = stats.received();
-            frames.dropped = stats.dropped();
-            frames.unpaired = stats.unpaired();
-        }
         HandEyeStatus {
             setup: self.settings.setup.name(),
             samples: self
@@ -775,7 +765,7 @@ impl HandEyeWorker {
             warnings,
             result: self.calibrated.as_ref().map(ResultEntry::new),
             saved: self.saved.clone(),
-            frames,
+            frames: self.counts,
         }
     }
 
@@ -785,7 +775,7 @@ impl HandEyeWorker {
             self.counts.dropped = stats.dropped();
             self.counts.unpaired = stats.unpaired();
         }
-        let text = self.status(stats).to_json_string();
+        let text = self.status().to_json_string();
         if let Err(e) = self
             .endpoints
             .status

@@ -61,8 +61,7 @@ fn draw_pose(canvas: &mut Canvas, target: &Target, pose: &FramePose) {
     let project = |p: &Point3<f64>| pose.camera.project(&(camera_from_target * p));
     let r = Vector2::new(3.0, 3.0);
     let flipped = Vector2::new(3.0, -3.0);
-    let object_points = pose.detection.object_points(target).unwrap_or_default();
-    for (corner, point) in pose.detection.corners.iter().zip(&object_points) {
+    for (corner, point) in pose.detection.corners.iter().zip(&pose.target_points) {
         canvas.line(corner - r, corner + r, DETECTED);
         canvas.line(corner - flipped, corner + flipped, DETECTED);
         if let Some(reprojected) = project(point) {

@@ -4,6 +4,8 @@
 
 use std::time::{Duration, Instant};
 
+use nalgebra::Point3;
+
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_vision::board::{
     BoardError, Detection, MIN_CHARUCO_CORNERS, Target, TargetDetector, detector_for,
@@ -93,6 +95,9 @@ pub struct FramePose {
     pub estimate: PoseEstimate,
     /// The detected corners.
     pub detection: Detection,
+    /// The target's points of the detected corners, in the target frame (metres), in
+    /// corner order.
+    pub target_points: Vec<Point3<f64>>,
     /// The camera model the pose was computed through (raw `K, D`, or the rectified
     /// `P` as a distortion-free camera).
     pub camera: CameraModel,
@@ -181,23 +186,27 @@ impl PoseStage {
         let started = Instant::now();
         let result = self.pose_of(&camera, &detection);
         times.pose = started.elapsed();
+        let (estimate, target_points) = result?;
         Ok(FramePose {
-            estimate: result?,
+            estimate,
             detection,
+            target_points,
             camera,
         })
     }
 
+    /// The pose of the detected target, and the target's points it was solved from.
     fn pose_of(
         &self,
         camera: &CameraModel,
         detection: &Detection,
-    ) -> Result<PoseEstimate, PoseRejection> {
+    ) -> Result<(PoseEstimate, Vec<Point3<f64>>), PoseRejection> {
         let target_points = detection.object_points(&self.target).ok_or_else(|| {
             PnpError::Degenerate("a detected corner id is not on the target".into())
         })?;
         let correspondences = Correspondences::new(camera, &target_points, &detection.corners)?;
-        Ok(estimate_pose(camera, &correspondences, &self.options)?)
+        let estimate = estimate_pose(camera, &correspondences, &self.options)?;
+        Ok((estimate, target_points))
     }
 
     fn not_visible_hint(&self) -> String {

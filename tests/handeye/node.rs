@@ -214,6 +214,20 @@ impl Player {
         }
     }
 
+    /// Sends the robot's poses up to a little after `frame` (as a driver streams them),
+    /// then the frame until the node's status shows its verdict.
+    fn show(
+        &mut self,
+        session: &Session,
+        robot: Robot,
+        sent: &mut usize,
+        frame: &(Image, CameraInfo),
+    ) {
+        let stamp = seconds(&frame.0.header.stamp);
+        self.send_robot(session, robot, sent, stamp + 0.1);
+        self.send_frame(frame);
+    }
+
     /// Sends a frame until the node's status shows its verdict.
     fn send_frame(&mut self, (image, info): &(Image, CameraInfo)) {
         let stamp = seconds(&image.header.stamp);
@@ -342,10 +356,7 @@ fn run_session(robot: Robot) {
 
     let mut robot_sent = 0;
     for (k, frame) in session.frames.iter().enumerate() {
-        let stamp = seconds(&frame.0.header.stamp);
-        // The robot's poses up to a little after the frame, as a driver streams them.
-        player.send_robot(&session, robot, &mut robot_sent, stamp + 0.1);
-        player.send_frame(frame);
+        player.show(&session, robot, &mut robot_sent, frame);
         let latest = player.last_status["latest"].clone();
         assert_eq!(latest["ready"], true, "frame {k}: {latest}");
         let taken = player.trigger("take_sample");
@@ -513,9 +524,7 @@ fn automatic_mode_samples_each_new_still_pose_and_says_why_a_frame_cannot_be_sam
     // Every still pose sampled without a call.
     let mut robot_sent = 0;
     for (k, frame) in session.frames.iter().enumerate() {
-        let stamp = seconds(&frame.0.header.stamp);
-        player.send_robot(&session, Robot::Topic, &mut robot_sent, stamp + 0.1);
-        player.send_frame(frame);
+        player.show(&session, Robot::Topic, &mut robot_sent, frame);
         player.wait_for("the automatic sample", |p| p.samples() == k + 1);
     }
     // The last pose again: the robot stands where a sample was taken; nothing new.
@@ -567,9 +576,7 @@ fn pose_node_feeds_handeye_node_and_the_result_matches_the_offline_commands() {
     player.wait_for("the node's first status", |p| !p.last_status.is_null());
     let mut robot_sent = 0;
     for (k, frame) in session.frames.iter().enumerate() {
-        let stamp = seconds(&frame.0.header.stamp);
-        player.send_robot(&session, Robot::Tf, &mut robot_sent, stamp + 0.1);
-        player.send_frame(frame);
+        player.show(&session, Robot::Tf, &mut robot_sent, frame);
         let taken = player.trigger("take_sample");
         assert!(taken.success, "frame {k}: {taken:?}");
     }
