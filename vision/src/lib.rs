@@ -11,4 +11,5 @@ pub mod image;
 pub mod pnp;
 pub mod rectify;
 mod rotation;
+pub mod stereo;
 pub mod synth;

@@ -10,6 +10,7 @@
 mod background;
 mod board;
 mod corner_session;
+pub mod depth;
 mod photometry;
 mod poses;
 mod rays;

@@ -1,0 +1,110 @@
+//! What a semi-global matcher is asked to do: the disparities it searches, the paths it
+//! aggregates along, its smoothness penalties and the checks that reject a match.
+
+use serde::{Deserialize, Serialize};
+
+use super::StereoError;
+use super::census;
+
+/// Directions along which matching costs are aggregated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Paths {
+    /// Left to right, right to left, top to bottom and bottom to top.
+    Four,
+    /// The five directions that come from the row above or from either side (left,
+    /// right, top-left, top, top-right): one sweep over the image, as OpenCV's default
+    /// SGBM mode.
+    Five,
+    /// All eight directions: the full semi-global matching of Hirschmüller.
+    Eight,
+}
+
+/// Parameters of [`super::SemiGlobalMatcher`]. Costs are Hamming distances of 9x7
+/// census descriptors (0 to 62), so the penalties are in the same units.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SgmParams {
+    /// Smallest disparity searched, pixels (may be negative).
+    pub min_disparity: i32,
+    /// Number of disparities searched, a positive multiple of 16 below the image width.
+    pub disparity_range: usize,
+    /// Aggregation directions.
+    pub paths: Paths,
+    /// Penalty for a change of disparity by one pixel between neighbours.
+    pub p1: u16,
+    /// Penalty for a larger change of disparity between neighbours, at least `p1`.
+    pub p2: u16,
+    /// A match is kept only when every disparity more than one pixel away from it costs
+    /// at least this many percent more (0 turns the check off).
+    pub uniqueness_ratio: u32,
+    /// Largest difference, pixels, between the left-to-right and the right-to-left match
+    /// of a pixel; `None` turns the left-right consistency check off.
+    pub disp12_max_diff: Option<u32>,
+    /// Connected regions of similar disparity with at most this many pixels are taken
+    /// for noise and invalidated (0 turns the speckle filter off).
+    pub speckle_size: usize,
+    /// Largest disparity difference, pixels, between neighbours of one speckle region.
+    pub speckle_range: f32,
+}
+
+impl Default for SgmParams {
+    fn default() -> Self {
+        Self {
+            min_disparity: 0,
+            disparity_range: 128,
+            paths: Paths::Eight,
+            p1: 10,
+            p2: 120,
+            uniqueness_ratio: 5,
+            disp12_max_diff: Some(1),
+            speckle_size: 100,
+            speckle_range: 2.0,
+        }
+    }
+}
+
+/// Largest `p2`: eight paths of at most `BITS + p2` each stay inside a `u16` sum.
+pub const MAX_P2: u16 = 8000 - census::BITS as u16;
+
+impl SgmParams {
+    /// Checks the parameters against an image `width` pixels wide.
+    pub fn validate(&self, width: usize) -> Result<(), StereoError> {
+        if self.disparity_range == 0 || !self.disparity_range.is_multiple_of(16) {
+            return Err(StereoError::DisparityRange {
+                range: self.disparity_range,
+                reason: "it must be a positive multiple of 16".into(),
+            });
+        }
+        if self.disparity_range >= width {
+            return Err(StereoError::DisparityRange {
+                range: self.disparity_range,
+                reason: format!("it must be below the image width of {width} pixels"),
+            });
+        }
+        if self.min_disparity.unsigned_abs() as usize >= width {
+            return Err(StereoError::Parameter(format!(
+                "min_disparity {} must be within the image width of {width} pixels",
+                self.min_disparity
+            )));
+        }
+        if self.p1 == 0 || self.p2 < self.p1 || self.p2 > MAX_P2 {
+            return Err(StereoError::Parameter(format!(
+                "the penalties must satisfy 0 < P1 <= P2 <= {MAX_P2}, got P1 {} and P2 {}",
+                self.p1, self.p2
+            )));
+        }
+        if self.uniqueness_ratio >= 100 {
+            return Err(StereoError::Parameter(format!(
+                "uniqueness_ratio is a percentage below 100, got {}",
+                self.uniqueness_ratio
+            )));
+        }
+        if !(self.speckle_range.is_finite() && self.speckle_range >= 0.0) {
+            return Err(StereoError::Parameter(format!(
+                "speckle_range must be a non-negative number of pixels, got {}",
+                self.speckle_range
+            )));
+        }
+        Ok(())
+    }
+}
