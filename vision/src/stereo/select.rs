@@ -30,14 +30,10 @@ fn choose_row_body(
         .zip(disparities.iter_mut())
         .enumerate()
     {
-        let min = costs.iter().copied().min().unwrap_or(u16::MAX);
-        let best = costs.iter().position(|&c| c == min).unwrap_or(0);
-        let runner_up = costs[..best.saturating_sub(1)]
-            .iter()
-            .chain(costs.get(best + 2..).unwrap_or(&[]))
-            .copied()
-            .min()
-            .unwrap_or(u16::MAX);
+        let min = smallest(costs);
+        let best = first_position(costs, min);
+        let runner_up = smallest(&costs[..best.saturating_sub(1)])
+            .min(smallest(costs.get(best + 2..).unwrap_or(&[])));
         if u32::from(runner_up) * (100 - uniqueness_ratio) < u32::from(min) * 100 {
             *disparity = f32::NAN;
             continue;
@@ -63,6 +59,26 @@ dispatched! {
         right_matches: &mut [i32],
         right_costs: &mut [u16],
     ) = choose_row_body;
+}
+
+/// The smallest of `costs` (`u16::MAX` for none), in a form that vectorizes.
+#[inline(always)]
+fn smallest(costs: &[u16]) -> u16 {
+    costs.iter().fold(u16::MAX, |a, &b| a.min(b))
+}
+
+/// Index of the first of `costs` equal to `value` (which is one of them): found a block
+/// of 16 at a time, so that the search vectorizes.
+#[inline(always)]
+fn first_position(costs: &[u16], value: u16) -> usize {
+    let mut blocks = costs.chunks_exact(16);
+    let block = blocks
+        .position(|b| b.iter().fold(false, |found, &c| found | (c == value)))
+        .map_or(costs.len() - blocks.remainder().len(), |k| k * 16);
+    costs[block..]
+        .iter()
+        .position(|&c| c == value)
+        .map_or(0, |i| block + i)
 }
 
 /// Offset of the vertex of the parabola through the costs at `best - 1`, `best` and
