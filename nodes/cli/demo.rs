@@ -304,8 +304,8 @@ fn bundled_or_synthesized(out: &Path) -> anyhow::Result<PathBuf> {
 /// The `stereocal synth` arguments of the bundled stereo scene.
 pub fn bundled_stereo_args(out: PathBuf) -> SynthArgs {
     SynthArgs {
-        width: 640,
-        height: 480,
+        width: Some(640),
+        height: Some(480),
         bad_frames: Some(0.0),
         ..SynthArgs::new(SceneArg::Stereo, out, 1, 8)
     }

@@ -10,3 +10,4 @@ pub mod play;
 pub mod pose;
 pub mod rectify;
 pub mod synth;
+pub mod synth_depth;

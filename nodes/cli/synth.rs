@@ -18,11 +18,13 @@ use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::rectify::{
     StereoRectification, StereoRectifyOptions, fisheye_stereo_rectify, stereo_rectify,
 };
+use stereocal_vision::synth::depth::DepthRig;
 use stereocal_vision::synth::{
     Chessboard, GroundTruth, PixelFormat, RigLayout, RobotMotion, RobotNoise, Scene, SceneKind,
     SceneSpec, StampRecord,
 };
 
+use crate::cli::synth_depth::{self, DepthScenes};
 use crate::convert::{
     CalibratedCamera, Encoding, info_from_calibrated, info_from_raw_camera, msg_from_image,
     pose_msg, transform_msg,
@@ -47,6 +49,12 @@ pub enum SceneArg {
     HandeyeInHand,
     /// Eye-to-hand: camera fixed, board on the robot's tool.
     HandeyeToHand,
+    /// Rectified stereo pairs of rooms (boxes, a slanted board, a floor, thin poles, a
+    /// weakly textured panel) with exact disparity truth, for dense stereo.
+    Depth,
+    /// Rectified stereo pairs of a textured wall from 0.3 to 3 m, with exact
+    /// disparity truth.
+    DepthWalls,
 }
 
 /// Lens model of the synthetic cameras.
@@ -76,15 +84,17 @@ pub struct SynthArgs {
     /// Seed of every random choice: the same seed gives the same bytes.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Number of frames (default: 20 stereo, 25 calibration, 15 hand-eye).
+    /// Number of frames (default: 20 stereo, 25 calibration, 15 hand-eye, 3 depth;
+    /// depth-walls has one per distance).
     #[arg(long)]
     pub frames: Option<usize>,
-    /// Image width, pixels.
-    #[arg(long, default_value_t = 1024)]
-    pub width: u32,
-    /// Image height, pixels.
-    #[arg(long, default_value_t = 768)]
-    pub height: u32,
+    /// Image width, pixels (default 1024; 640 for depth scenes, whose focal length
+    /// scales with the width from 600 px at 640).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height, pixels (default 768; 480 for depth scenes).
+    #[arg(long)]
+    pub height: Option<u32>,
     /// Lens distortion model.
     #[arg(long, value_enum, default_value = "plumb_bob")]
     pub model: ModelArg,
@@ -166,8 +176,8 @@ impl SynthArgs {
             out,
             seed,
             frames: Some(frames),
-            width: 1024,
-            height: 768,
+            width: None,
+            height: None,
             model: ModelArg::PlumbBob,
             bad_frames: None,
             rgb: false,
@@ -178,19 +188,13 @@ impl SynthArgs {
         }
     }
 
-    /// The scene these arguments describe.
-    pub fn spec(&self) -> SceneSpec {
-        let kind = match self.scene {
-            SceneArg::Stereo => SceneKind::Stereo,
-            SceneArg::Calibration => SceneKind::Calibration,
-            SceneArg::HandeyeInHand => SceneKind::HandEyeInHand,
-            SceneArg::HandeyeToHand => SceneKind::HandEyeToHand,
-        };
+    /// The scene of `kind` these arguments describe.
+    fn spec(&self, kind: SceneKind) -> SceneSpec {
         let defaults = SceneSpec::new(kind, self.seed);
         SceneSpec {
             frames: self.frames.unwrap_or(defaults.frames),
-            width: self.width,
-            height: self.height,
+            width: self.width.unwrap_or(1024),
+            height: self.height.unwrap_or(768),
             model: match self.model {
                 ModelArg::PlumbBob => DistortionModel::PlumbBob,
                 ModelArg::RationalPolynomial => DistortionModel::RationalPolynomial,
@@ -244,7 +248,14 @@ pub fn run_with_target(args: &SynthArgs, target: Option<&Target>) -> anyhow::Res
             args.robot_stamp_offset
         );
     }
-    let mut spec = args.spec();
+    let kind = match args.scene {
+        SceneArg::Stereo => SceneKind::Stereo,
+        SceneArg::Calibration => SceneKind::Calibration,
+        SceneArg::HandeyeInHand => SceneKind::HandEyeInHand,
+        SceneArg::HandeyeToHand => SceneKind::HandEyeToHand,
+        SceneArg::Depth | SceneArg::DepthWalls => return run_depth(args),
+    };
+    let mut spec = args.spec(kind);
     if let Some(target) = target {
         spec.board = Chessboard::from_target(target).context("cannot render the target")?;
     }
@@ -263,6 +274,29 @@ pub fn run_with_target(args: &SynthArgs, target: Option<&Target>) -> anyhow::Res
         args.out.display()
     );
     Ok(())
+}
+
+/// Renders the depth scenes `args` ask for (`--scene depth` or `depth-walls`).
+fn run_depth(args: &SynthArgs) -> anyhow::Result<()> {
+    let scenes = if args.scene == SceneArg::DepthWalls {
+        if args.frames.is_some() {
+            bail!(
+                "--frames does not apply to depth-walls: it has one frame per distance ({} m)",
+                synth_depth::WALL_DISTANCES.map(|d| d.to_string()).join(", ")
+            );
+        }
+        DepthScenes::Walls
+    } else {
+        DepthScenes::Rooms {
+            frames: args.frames.unwrap_or(3),
+        }
+    };
+    let rig = DepthRig::WEBCAMS;
+    let rig = rig.with_size(
+        args.width.map_or(rig.width, |w| w as usize),
+        args.height.map_or(rig.height, |h| h as usize),
+    );
+    synth_depth::run(scenes, rig, args.seed, &args.out)
 }
 
 /// Image and camera_info topics of a camera in the scene.

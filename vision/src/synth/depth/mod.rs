@@ -105,17 +105,47 @@ const SUPERSAMPLING: usize = 3;
 /// Direction towards the light (unit), for gentle shading of surfaces by orientation.
 const LIGHT: [f64; 3] = [-0.3, -0.6, -0.74];
 
-impl DepthScene {
-    /// The seed geometry of the stereo depth report: 640x480, f = 600 px, 9 cm baseline.
-    fn seed_rig() -> (usize, usize, f64, f64) {
-        (640, 480, 600.0, 0.09)
-    }
+/// The cameras of a depth scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DepthRig {
+    /// Image width, pixels.
+    pub width: usize,
+    /// Image height, pixels.
+    pub height: usize,
+    /// Focal length of both cameras, pixels.
+    pub focal: f64,
+    /// Distance between the optical centres, metres.
+    pub baseline: f64,
+}
 
+impl DepthRig {
+    /// The geometry of the stereo depth report we were built from: two webcams 9 cm
+    /// apart at 640x480, f = 600 px.
+    pub const WEBCAMS: DepthRig = DepthRig {
+        width: 640,
+        height: 480,
+        focal: 600.0,
+        baseline: 0.09,
+    };
+
+    /// The same field of view at another resolution: the focal length scales with the
+    /// width.
+    pub fn with_size(self, width: usize, height: usize) -> Self {
+        Self {
+            width,
+            height,
+            focal: self.focal * width as f64 / self.width as f64,
+            ..self
+        }
+    }
+}
+
+impl DepthScene {
     /// A room-like scene: a back wall at 4 m, a floor, a slanted board, boxes at 1 to
     /// 2 m, a weakly textured patch, and thin poles of 4 and 8 mm radius. Every depth
-    /// is at least 0.65 m: disparities below 84 px.
-    pub fn standard(seed: u64) -> Self {
-        let (width, height, focal, baseline) = Self::seed_rig();
+    /// is at least 0.65 m: with [`DepthRig::WEBCAMS`], disparities below 84 px.
+    pub fn standard(rig: DepthRig, seed: u64) -> Self {
+        let DepthRig { width, height, focal, baseline } = rig;
         let mut next = seed;
         let mut texture = |albedo: f32, contrast: f32| {
             next = next.wrapping_add(0x9e37_79b9_7f4a_7c15);
@@ -204,8 +234,8 @@ impl DepthScene {
     }
 
     /// A textured wall facing the cameras at `distance` metres, filling the view.
-    pub fn wall(distance: f64, seed: u64) -> Self {
-        let (width, height, focal, baseline) = Self::seed_rig();
+    pub fn wall(rig: DepthRig, distance: f64, seed: u64) -> Self {
+        let DepthRig { width, height, focal, baseline } = rig;
         Self {
             width,
             height,
@@ -353,7 +383,7 @@ mod tests {
 
     #[test]
     fn a_wall_has_the_disparity_of_its_depth_and_shifts_by_it() {
-        let scene = DepthScene::wall(1.5, 3);
+        let scene = DepthScene::wall(DepthRig::WEBCAMS, 1.5, 3);
         let ideal = PairPhotometry {
             defocus_sigma: 0.0,
             read_noise: 0.0,
@@ -385,7 +415,7 @@ mod tests {
 
     #[test]
     fn the_standard_scene_has_occlusions_and_near_and_far_surfaces() {
-        let scene = DepthScene::standard(5);
+        let scene = DepthScene::standard(DepthRig::WEBCAMS, 5);
         let pair = scene.render(&PairPhotometry::realistic(), 2);
         let truth = &pair.truth;
         let (lo, hi) = truth
