@@ -17,11 +17,17 @@
 
 mod consensus;
 mod error;
+mod fundamental;
 mod homography;
 mod least_squares;
+mod null_space;
+mod polynomial;
 
 pub use consensus::{RobustMethod, RobustOptions};
 pub use error::GeometryError;
+pub use fundamental::{
+    FundamentalEstimate, find_fundamental, fundamental_8point, sampson_distance,
+};
 pub use homography::{HomographyEstimate, find_homography, homography_dlt};
 
 use nalgebra::Point2;
