@@ -17,6 +17,7 @@
 
 mod consensus;
 mod error;
+mod essential;
 mod fundamental;
 mod homography;
 mod least_squares;
@@ -25,6 +26,7 @@ mod polynomial;
 
 pub use consensus::{RobustMethod, RobustOptions};
 pub use error::GeometryError;
+pub use essential::{EssentialEstimate, decompose_essential, essential_5point, find_essential};
 pub use fundamental::{
     FundamentalEstimate, find_fundamental, fundamental_8point, sampson_distance,
 };
