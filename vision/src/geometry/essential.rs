@@ -66,9 +66,13 @@ pub fn essential_5point(a: &[Point2<f64>; 5], b: &[Point2<f64>; 5]) -> Vec<Matri
 /// translation (OpenCV's `decomposeEssentialMat`): rotations `U W V^T` and `U W^T V^T`,
 /// translations `±u3`, from the SVD `E = U diag(1, 1, 0) V^T` with `det U, det V > 0`.
 /// Only one of them puts the scene in front of both cameras ([`recover_pose`](super::recover_pose)
-/// chooses it). `None` when `E` is not finite or its SVD fails.
+/// chooses it). `None` when `E` is not finite, has rank below 2, or its SVD fails.
 pub fn decompose_essential(essential: &Matrix3<f64>) -> Option<[Isometry3<f64>; 4]> {
-    let (mut u, _, mut v_t) = svd3(essential)?;
+    let (mut u, sigma, mut v_t) = svd3(essential)?;
+    // A matrix of rank below 2 holds no pose.
+    if sigma[1] <= 1e-9 * sigma[0] || !sigma[0].is_finite() {
+        return None;
+    }
     if u.determinant() < 0.0 {
         u = -u;
     }

@@ -20,9 +20,12 @@ mod error;
 mod essential;
 mod fundamental;
 mod homography;
+mod homography_decomposition;
 mod least_squares;
 mod null_space;
 mod polynomial;
+mod recover_pose;
+mod triangulate;
 
 pub use consensus::{RobustMethod, RobustOptions};
 pub use error::GeometryError;
@@ -31,6 +34,14 @@ pub use fundamental::{
     FundamentalEstimate, find_fundamental, fundamental_8point, sampson_distance,
 };
 pub use homography::{HomographyEstimate, find_homography, homography_dlt};
+pub use homography_decomposition::{
+    HomographyDecomposition, decompose_homography, visible_decompositions,
+};
+pub use recover_pose::{DEFAULT_MAX_DISTANCE, RecoveredPose, recover_pose};
+pub use triangulate::{
+    CorrectedMatches, TriangulatedPoint, correct_matches, triangulate_linear, triangulate_optimal,
+    triangulate_rectified, triangulate_stereo,
+};
 
 use nalgebra::Point2;
 
