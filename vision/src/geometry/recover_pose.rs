@@ -1,10 +1,9 @@
 //! The relative pose held by an essential matrix: of its four decompositions, the one
 //! that puts the scene in front of both cameras (OpenCV's `recoverPose`).
 
-use nalgebra::{Isometry3, Matrix3, Matrix3x4, Point2};
+use nalgebra::{Isometry3, Matrix3, Point2};
 
 use super::essential::{decompose_essential, normalize};
-use super::triangulate::triangulate_linear;
 use super::{GeometryError, check_pairs};
 use crate::camera::CameraModel;
 
@@ -27,8 +26,8 @@ pub struct RecoveredPose {
 /// Chooses among the four poses of `essential` ([`decompose_essential`]) the one that
 /// puts the most correspondences in front of both cameras (OpenCV's `recoverPose`):
 /// each correspondence of `mask` (all when `None`), undistorted through its camera
-/// model, is triangulated by the linear DLT for each pose and counts when its depth in
-/// both cameras is positive and below `max_distance` (in units of the baseline, which
+/// model, is triangulated for each pose (the midpoint of the common perpendicular of
+/// its two rays) and counts when its depth in both cameras is positive and below `max_distance` (in units of the baseline, which
 /// the pose makes 1; [`DEFAULT_MAX_DISTANCE`] is OpenCV's 50), which drops points
 /// triangulated near infinity, whose side is down to noise.
 ///
@@ -74,22 +73,19 @@ pub fn recover_pose(
     let poses = decompose_essential(essential).ok_or_else(|| {
         GeometryError::NoSolution("the essential matrix does not decompose".into())
     })?;
-    let origin = Matrix3x4::identity();
     let mut best: Option<(Isometry3<f64>, Vec<bool>, usize)> = None;
     for pose in poses {
-        let projection: Matrix3x4<f64> = pose.to_matrix().fixed_rows::<3>(0).into_owned();
-        let points = triangulate_linear(&origin, &projection, &normalized_a, &normalized_b)?;
-        let in_front: Vec<bool> = points
+        let in_front: Vec<bool> = normalized_a
             .iter()
+            .zip(&normalized_b)
             .enumerate()
-            .map(|(i, point)| {
+            .map(|(i, (a, b))| {
                 considered(i)
-                    && point.is_some_and(|p| {
-                        let in_b = pose * p.point;
-                        p.point.z > 0.0
-                            && p.point.z < max_distance
-                            && in_b.z > 0.0
-                            && in_b.z < max_distance
+                    && depths(&pose, a, b).is_some_and(|(depth_a, depth_b)| {
+                        depth_a > 0.0
+                            && depth_a < max_distance
+                            && depth_b > 0.0
+                            && depth_b < max_distance
                     })
             })
             .collect();
@@ -110,4 +106,26 @@ pub fn recover_pose(
             total: (0..pixels_a.len()).filter(|&i| considered(i)).count(),
         }),
     }
+}
+
+/// The depths in cameras `a` and `b` of the midpoint of the common perpendicular of the
+/// rays through normalized points `a` and `b`, for `camera_b_from_camera_a = pose`;
+/// `None` for parallel rays (a point at infinity).
+fn depths(pose: &Isometry3<f64>, a: &Point2<f64>, b: &Point2<f64>) -> Option<(f64, f64)> {
+    // In camera b's frame: the ray of a is t + s u, that of b is r v; s and r minimize
+    // |s u - r v + t|^2.
+    let u = pose.rotation * a.to_homogeneous();
+    let v = b.to_homogeneous();
+    let t = pose.translation.vector;
+    let (uu, uv, vv) = (u.dot(&u), u.dot(&v), v.dot(&v));
+    let determinant = uu * vv - uv * uv;
+    if determinant <= 1e-12 * uu * vv {
+        return None;
+    }
+    let (ut, vt) = (u.dot(&t), v.dot(&t));
+    let s = (uv * vt - vv * ut) / determinant;
+    let r = (uu * vt - uv * ut) / determinant;
+    let midpoint = (t + u * s + v * r) * 0.5;
+    let in_a = pose.rotation.inverse() * (midpoint - t);
+    (in_a.z.is_finite() && midpoint.z.is_finite()).then_some((in_a.z, midpoint.z))
 }
