@@ -1,7 +1,7 @@
 //! Tests of stereocal-vision, one binary with a module per concern: camera models
 //! against OpenCV and finite differences, target detection on real and synthetic
-//! images, calibration against OpenCV and ground truth, rectification, remap fixtures,
-//! and the synthetic scenes' own truth.
+//! images, calibration against OpenCV and ground truth, two-view geometry against
+//! ground truth, rectification, remap fixtures, and the synthetic scenes' own truth.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
 
 mod board_opencv_stereo;
@@ -14,6 +14,7 @@ mod camera_opencv;
 mod camera_undistort;
 mod charuco;
 mod common;
+mod geometry_synthetic;
 mod pnp_opencv_failures;
 mod remap_opencv_fixture;
 mod stereo_rectify_geometry;

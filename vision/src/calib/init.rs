@@ -7,8 +7,8 @@ use nalgebra::{
 };
 
 use super::View;
-use super::homography::homography;
 use crate::camera::{CameraModel, Intrinsics};
+use crate::geometry::homography_dlt;
 
 /// Pinhole intrinsics from the homographies (target plane to pixels) of several views,
 /// as OpenCV's `initIntrinsicParams2D`: the principal point at the image centre (pixel
@@ -83,7 +83,7 @@ pub(crate) fn initial_pose(camera: &CameraModel, view: &View) -> Option<Isometry
             normalized.push(Point2::new(ray.x, ray.y));
         }
     }
-    pose_from_homography(&homography(&plane, &normalized)?)
+    pose_from_homography(&homography_dlt(&plane, &normalized).ok()?)
 }
 
 /// Decomposes `H ~ [r1 r2 t]` (target plane to normalized image coordinates) into the
@@ -193,7 +193,7 @@ mod tests {
             .map(|pose| {
                 let v = view(pose);
                 let plane: Vec<Point2<f64>> = v.points_in_target.iter().map(|p| p.xy()).collect();
-                homography(&plane, &v.pixels).unwrap()
+                homography_dlt(&plane, &v.pixels).unwrap()
             })
             .collect();
         let k = pinhole_intrinsics(&homographies, 1024, 768, None).unwrap();
@@ -209,7 +209,7 @@ mod tests {
         let fronto = Isometry3::new(Vector3::new(-0.1, -0.05, 0.5), Vector3::zeros());
         let v = view(&fronto);
         let plane: Vec<Point2<f64>> = v.points_in_target.iter().map(|p| p.xy()).collect();
-        let h = homography(&plane, &v.pixels).unwrap();
+        let h = homography_dlt(&plane, &v.pixels).unwrap();
         assert!(pinhole_intrinsics(&[h, h, h], 1024, 768, None).is_none());
     }
 }

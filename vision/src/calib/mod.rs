@@ -12,7 +12,6 @@
 mod bundle;
 mod epipolar;
 mod error;
-mod homography;
 mod init;
 mod invertibility;
 mod mono;

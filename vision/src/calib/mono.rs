@@ -5,7 +5,6 @@ use nalgebra::{DMatrix, Isometry3, Point2};
 use serde::{Deserialize, Serialize};
 
 use super::bundle::{self, Termination};
-use super::homography::homography;
 use super::init::{fisheye_intrinsics, initial_pose, pinhole_intrinsics, tilt};
 use super::invertibility::invertible_over_image;
 use super::parameters::{FixedParameters, Parameterization, coefficient_count, tangential_indices};
@@ -13,6 +12,7 @@ use super::rejection::{RejectedView, RejectionOptions, RejectionReason, worst_vi
 use super::reprojection::{MonoProblem, MonoState, squared_errors};
 use super::{CalibError, View};
 use crate::camera::{CameraModel, Distortion, DistortionModel};
+use crate::geometry::homography_dlt;
 
 /// Views below which the intrinsics are not determined.
 pub const MIN_VIEWS: usize = 3;
@@ -414,9 +414,9 @@ fn initial_camera(
                 for (i, view) in views.iter().enumerate() {
                     let plane: Vec<Point2<f64>> =
                         view.points_in_target.iter().map(|p| p.xy()).collect();
-                    match homography(&plane, &view.pixels) {
-                        Some(h) => homographies.push(h),
-                        None => rejected.push(RejectedView {
+                    match homography_dlt(&plane, &view.pixels) {
+                        Ok(h) => homographies.push(h),
+                        Err(_) => rejected.push(RejectedView {
                             index: i,
                             reason: RejectionReason::NoPose,
                         }),

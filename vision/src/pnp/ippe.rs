@@ -7,11 +7,12 @@
 //! image does not say which pose is right.
 
 use nalgebra::{
-    DMatrix, Isometry3, Matrix2, Matrix3, Point2, Point3, Rotation3, SymmetricEigen, Translation3,
+    Isometry3, Matrix2, Matrix3, Point2, Point3, Rotation3, SymmetricEigen, Translation3,
     UnitQuaternion, Vector2, Vector3,
 };
 
 use super::{PnpError, check_solver_input};
+use crate::geometry::homography_dlt;
 
 /// Largest accepted ratio of the target points' RMS distance to their best-fit plane over
 /// their RMS spread along the plane's main direction: room for a slightly warped board,
@@ -79,13 +80,18 @@ pub fn ippe(
         .iter()
         .map(|p| (plane_from_target * p).xy())
         .collect();
-    let plane_to_image = homography(&in_plane, normalized).ok_or_else(|| {
-        PnpError::Degenerate(
-            "the points do not determine a plane-to-image homography \
-             (three of four points on one line?)"
-                .into(),
-        )
-    })?;
+    // The solver reads the image of the plane's origin from H scaled to H[(2, 2)] = 1:
+    // a homography taking that origin to infinity is refused like a degenerate one.
+    let plane_to_image = homography_dlt(&in_plane, normalized)
+        .ok()
+        .filter(|h| h[(2, 2)] == 1.0)
+        .ok_or_else(|| {
+            PnpError::Degenerate(
+                "the points do not determine a plane-to-image homography \
+                 (three of four points on one line?)"
+                    .into(),
+            )
+        })?;
     let [first, second] = camera_from_plane_rotations(&plane_to_image)?;
     let pose = |camera_from_plane: Rotation3<f64>| {
         let rotation =
@@ -143,67 +149,6 @@ fn plane_frame(target_points: &[Point3<f64>]) -> Result<Isometry3<f64>, PnpError
     Ok(Isometry3::from_parts(
         Translation3::from(-(plane_from_target * centroid)),
         plane_from_target,
-    ))
-}
-
-/// The homography `H` with `image ~ H [x y 1]^T`, scaled so that `H[(2, 2)] = 1`, by the
-/// direct linear transform on Hartley-normalized points, solved by SVD (not through the
-/// normal equations, to keep exact data exact). `None` when the points do not determine it
-/// or the plane's origin maps to infinity.
-fn homography(plane: &[Point2<f64>], image: &[Point2<f64>]) -> Option<Matrix3<f64>> {
-    let t_plane = normalizing_transform(plane)?;
-    let t_image = normalizing_transform(image)?;
-    // At least 9 rows, so that the SVD yields every right singular vector.
-    let rows = (2 * plane.len()).max(9);
-    let mut a = DMatrix::<f64>::zeros(rows, 9);
-    for (i, (p, q)) in plane.iter().zip(image).enumerate() {
-        let p = t_plane * p.to_homogeneous();
-        let q = t_image * q.to_homogeneous();
-        let (u, v) = (q.x, q.y);
-        for (k, &c) in [p.x, p.y, 1.0].iter().enumerate() {
-            a[(2 * i, k)] = c;
-            a[(2 * i, 6 + k)] = -u * c;
-            a[(2 * i + 1, 3 + k)] = c;
-            a[(2 * i + 1, 6 + k)] = -v * c;
-        }
-    }
-    let svd = a.svd(false, true);
-    let v_t = svd.v_t?;
-    let sigma = &svd.singular_values;
-    // A second vanishing singular value: a family of homographies fits the points.
-    if sigma[7] <= 1e-10 * sigma[0] {
-        return None;
-    }
-    let h = v_t.row(8);
-    let normalized = Matrix3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]);
-    let h = t_image.try_inverse()? * normalized * t_plane;
-    let scale = h[(2, 2)];
-    (scale.abs() > 1e-12 * h.norm() && h.iter().all(|v| v.is_finite())).then(|| h / scale)
-}
-
-/// Similarity moving the points' centroid to the origin and their mean distance from it
-/// to sqrt(2).
-fn normalizing_transform(points: &[Point2<f64>]) -> Option<Matrix3<f64>> {
-    let n = points.len() as f64;
-    let mean = points
-        .iter()
-        .fold(Vector2::zeros(), |sum, p| sum + p.coords)
-        / n;
-    let mean_distance = points.iter().map(|p| (p.coords - mean).norm()).sum::<f64>() / n;
-    if !(mean_distance > 0.0 && mean_distance.is_finite()) {
-        return None;
-    }
-    let s = std::f64::consts::SQRT_2 / mean_distance;
-    Some(Matrix3::new(
-        s,
-        0.0,
-        -s * mean.x,
-        0.0,
-        s,
-        -s * mean.y,
-        0.0,
-        0.0,
-        1.0,
     ))
 }
 
