@@ -142,7 +142,7 @@ def run_ours(timing, frames, work, params, repeats, threads):
 def default_params(paths, disparities):
     return {"min_disparity": 0, "disparity_range": disparities, "paths": paths, "p1": 10,
             "p2": 120, "uniqueness_ratio": 5, "disp12_max_diff": 1, "speckle_size": 100,
-            "speckle_range": 2.0}
+            "speckle_range": 2.0, "refine_radius": 4}
 
 
 def mean_scores(scores):

@@ -1,5 +1,5 @@
-//! Dense stereo matching of rectified pairs: semi-global matching on census costs,
-//! and what a disparity map gives (depth, points).
+//! Dense stereo matching of rectified pairs: semi-global matching on census costs with
+//! sub-pixel refinement on the images, and what a disparity map gives (depth, points).
 //!
 //! Conventions: a pair is rectified (epipolar lines are image rows); the disparity of a
 //! left pixel `x` is `x - x_right`, in pixels, with pixel centres at integer
@@ -10,6 +10,7 @@ mod aligned;
 mod census;
 mod cost;
 mod params;
+mod refine;
 mod reproject;
 mod select;
 mod sgm;
@@ -17,7 +18,7 @@ mod simd;
 mod speckle;
 
 pub use census::{BITS as CENSUS_BITS, Sample, census_transform};
-pub use params::{MAX_P2, Paths, SgmParams};
+pub use params::{MAX_P2, MAX_REFINE_RADIUS, Paths, SgmParams};
 pub use reproject::{Reprojection, ReprojectionError};
 pub use sgm::SemiGlobalMatcher;
 

@@ -45,6 +45,10 @@ pub struct SgmParams {
     pub speckle_size: usize,
     /// Largest disparity difference, pixels, between neighbours of one speckle region.
     pub speckle_range: f32,
+    /// Half-size of the window of the sub-pixel refinement on the images (the window
+    /// is `2 * refine_radius + 1` pixels square); 0 keeps the parabola through the
+    /// aggregated costs.
+    pub refine_radius: usize,
 }
 
 impl Default for SgmParams {
@@ -59,9 +63,13 @@ impl Default for SgmParams {
             disp12_max_diff: Some(1),
             speckle_size: 100,
             speckle_range: 2.0,
+            refine_radius: 4,
         }
     }
 }
+
+/// Largest `refine_radius`: a 31-pixel window.
+pub const MAX_REFINE_RADIUS: usize = 15;
 
 /// Largest `p2`: eight paths of at most `BITS + p2` each stay inside a `u16` sum.
 pub const MAX_P2: u16 = 8000 - census::BITS as u16;
@@ -97,6 +105,12 @@ impl SgmParams {
             return Err(StereoError::Parameter(format!(
                 "uniqueness_ratio is a percentage below 100, got {}",
                 self.uniqueness_ratio
+            )));
+        }
+        if self.refine_radius > MAX_REFINE_RADIUS {
+            return Err(StereoError::Parameter(format!(
+                "refine_radius must be at most {MAX_REFINE_RADIUS}, got {}",
+                self.refine_radius
             )));
         }
         if !(self.speckle_range.is_finite() && self.speckle_range >= 0.0) {

@@ -10,6 +10,7 @@ use super::aligned::AlignedBuffer;
 use super::census::census_transform;
 use super::cost::cost_row;
 use super::params::{Paths, SgmParams};
+use super::refine::Refiner;
 use super::select::{check_left_right, choose_row};
 use super::speckle::SpeckleFilter;
 use super::{DisparityMap, StereoError};
@@ -47,7 +48,12 @@ pub struct SemiGlobalMatcher {
     right_matches: Vec<i32>,
     right_costs: Vec<u16>,
     speckles: SpeckleFilter,
+    refiner: Refiner,
 }
+
+/// Gauss-Newton steps of the sub-pixel refinement: the first lands within a few
+/// hundredths of a pixel, the second settles it.
+const REFINE_ITERATIONS: usize = 2;
 
 /// Path slots and minima of the row before and the row being swept, along the paths
 /// that cross rows.
@@ -148,6 +154,7 @@ impl SemiGlobalMatcher {
             right_matches: Vec::new(),
             right_costs: Vec::new(),
             speckles: SpeckleFilter::default(),
+            refiner: Refiner::default(),
         }
     }
 
@@ -250,6 +257,13 @@ impl SemiGlobalMatcher {
         for (k, plan) in plans.iter().enumerate() {
             self.sweep_rows(plan, k == 1, width, height, &mut out.data);
         }
+        self.refiner.refine(
+            &mut out.data,
+            left,
+            right,
+            self.params.refine_radius,
+            REFINE_ITERATIONS,
+        );
         self.speckles.apply(
             &mut out.data,
             width,

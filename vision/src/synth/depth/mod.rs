@@ -145,7 +145,12 @@ impl DepthScene {
     /// 2 m, a weakly textured patch, and thin poles of 4 and 8 mm radius. Every depth
     /// is at least 0.65 m: with [`DepthRig::WEBCAMS`], disparities below 84 px.
     pub fn standard(rig: DepthRig, seed: u64) -> Self {
-        let DepthRig { width, height, focal, baseline } = rig;
+        let DepthRig {
+            width,
+            height,
+            focal,
+            baseline,
+        } = rig;
         let mut next = seed;
         let mut texture = |albedo: f32, contrast: f32| {
             next = next.wrapping_add(0x9e37_79b9_7f4a_7c15);
@@ -235,7 +240,12 @@ impl DepthScene {
 
     /// A textured wall facing the cameras at `distance` metres, filling the view.
     pub fn wall(rig: DepthRig, distance: f64, seed: u64) -> Self {
-        let DepthRig { width, height, focal, baseline } = rig;
+        let DepthRig {
+            width,
+            height,
+            focal,
+            baseline,
+        } = rig;
         Self {
             width,
             height,
