@@ -282,7 +282,9 @@ fn run_depth(args: &SynthArgs) -> anyhow::Result<()> {
         if args.frames.is_some() {
             bail!(
                 "--frames does not apply to depth-walls: it has one frame per distance ({} m)",
-                synth_depth::WALL_DISTANCES.map(|d| d.to_string()).join(", ")
+                synth_depth::WALL_DISTANCES
+                    .map(|d| d.to_string())
+                    .join(", ")
             );
         }
         DepthScenes::Walls

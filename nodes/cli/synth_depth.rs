@@ -91,7 +91,12 @@ pub fn run(scenes: DepthScenes, rig: DepthRig, seed: u64, out: &Path) -> anyhow:
         DepthScenes::Walls => WALL_DISTANCES
             .iter()
             .enumerate()
-            .map(|(i, &d)| (DepthScene::wall(rig, d, seed.wrapping_add(i as u64)), Some(d)))
+            .map(|(i, &d)| {
+                (
+                    DepthScene::wall(rig, d, seed.wrapping_add(i as u64)),
+                    Some(d),
+                )
+            })
             .collect(),
     };
     let truth_dir = out.join("truth");
@@ -118,8 +123,10 @@ pub fn run(scenes: DepthScenes, rig: DepthRig, seed: u64, out: &Path) -> anyhow:
     let qos = OfferedQos::default();
     let mut topics = Vec::new();
     for name in ["left", "right"] {
-        let image = bag.add_message_topic::<ImageMsg>(&format!("/stereo/{name}/image_rect"), &qos)?;
-        let info = bag.add_message_topic::<CameraInfo>(&format!("/stereo/{name}/camera_info"), &qos)?;
+        let image =
+            bag.add_message_topic::<ImageMsg>(&format!("/stereo/{name}/image_rect"), &qos)?;
+        let info =
+            bag.add_message_topic::<CameraInfo>(&format!("/stereo/{name}/camera_info"), &qos)?;
         topics.push((image, info));
     }
     let (cx, cy) = frames
@@ -142,15 +149,20 @@ pub fn run(scenes: DepthScenes, rig: DepthRig, seed: u64, out: &Path) -> anyhow:
             sec: (stamp_ns / 1_000_000_000) as i32,
             nanosec: (stamp_ns % 1_000_000_000) as u32,
         };
-        for ((name, image), ((image_topic, info_topic), camera)) in [("left", &pair.left), ("right", &pair.right)]
-            .into_iter()
-            .zip(topics.iter().zip(&cameras))
+        for ((name, image), ((image_topic, info_topic), camera)) in
+            [("left", &pair.left), ("right", &pair.right)]
+                .into_iter()
+                .zip(topics.iter().zip(&cameras))
         {
             let header = Header {
                 stamp,
                 frame_id: format!("{name}_optical_frame"),
             };
-            bag.write_message(*image_topic, stamp_ns, &msg_from_image(image, Encoding::Mono8, header.clone())?)?;
+            bag.write_message(
+                *image_topic,
+                stamp_ns,
+                &msg_from_image(image, Encoding::Mono8, header.clone())?,
+            )?;
             bag.write_message(*info_topic, stamp_ns, &info_from_calibrated(camera, header))?;
         }
         let disparity = format!("truth/frame_{index:03}_disparity.pfm");
@@ -186,7 +198,10 @@ pub fn run(scenes: DepthScenes, rig: DepthRig, seed: u64, out: &Path) -> anyhow:
 /// The two cameras of a rectified rig: no distortion, `R = I`, the right one `baseline`
 /// metres along x (`P[0][3] = -f * baseline`).
 pub fn rectified_pair(rig: &DepthRig) -> [CalibratedCamera; 2] {
-    let (cx, cy) = ((rig.width as f64 - 1.0) / 2.0, (rig.height as f64 - 1.0) / 2.0);
+    let (cx, cy) = (
+        (rig.width as f64 - 1.0) / 2.0,
+        (rig.height as f64 - 1.0) / 2.0,
+    );
     let model = CameraModel {
         width: rig.width as u32,
         height: rig.height as u32,
@@ -199,7 +214,9 @@ pub fn rectified_pair(rig: &DepthRig) -> [CalibratedCamera; 2] {
         distortion: Distortion::none(),
     };
     let projection = |tx: f64| {
-        Matrix3x4::new(rig.focal, 0.0, cx, tx, 0.0, rig.focal, cy, 0.0, 0.0, 0.0, 1.0, 0.0)
+        Matrix3x4::new(
+            rig.focal, 0.0, cx, tx, 0.0, rig.focal, cy, 0.0, 0.0, 0.0, 1.0, 0.0,
+        )
     };
     [0.0, -rig.focal * rig.baseline].map(|tx| CalibratedCamera {
         model: model.clone(),
@@ -221,7 +238,11 @@ fn write_pfm(path: &Path, truth: &DisparityTruth) -> anyhow::Result<()> {
 
 /// Writes the visibility mask of `truth` as an 8-bit PNG (255 visible), atomically.
 fn write_visible(path: &Path, truth: &DisparityTruth) -> anyhow::Result<()> {
-    let mask: Vec<u8> = truth.visible.iter().map(|&v| if v { 255 } else { 0 }).collect();
+    let mask: Vec<u8> = truth
+        .visible
+        .iter()
+        .map(|&v| if v { 255 } else { 0 })
+        .collect();
     let mut bytes = Vec::new();
     image::codecs::png::PngEncoder::new(&mut bytes)
         .write_image(
