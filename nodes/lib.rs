@@ -12,6 +12,7 @@ pub mod calibrate;
 pub mod cli;
 pub mod composition;
 pub mod convert;
+pub mod depth;
 pub mod draw;
 pub mod handeye;
 pub mod image_transport;

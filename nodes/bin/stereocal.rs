@@ -20,6 +20,9 @@ enum Command {
     /// Hand-eye calibration of a recorded session: target poses paired with robot poses
     /// by stamp, every method, the best chosen; writes DIR/handeye.yaml.
     Handeye(cli::handeye::HandEyeArgs),
+    /// The disparity of every rectified stereo pair of a bag, written as
+    /// <ns>/disparity.
+    Depth(cli::depth::DepthArgs),
     /// The main job on the bundled stereo bag: rectify it offline and through two
     /// rectify nodes over DDS, and measure row alignment against ground truth.
     Demo(cli::demo::DemoArgs),
@@ -45,6 +48,7 @@ fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
         Command::Calibrate(args) => cli::calibrate::run(&args),
         Command::Demo(args) => cli::demo::run(&args),
+        Command::Depth(args) => cli::depth::run(&args),
         Command::Play(args) => cli::play::run(&args),
         Command::Pose(args) => cli::pose::run(&args),
         Command::Handeye(args) => cli::handeye::run(&args),

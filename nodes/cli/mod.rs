@@ -3,6 +3,7 @@
 
 pub mod calibrate;
 pub mod demo;
+pub mod depth;
 pub mod handeye;
 pub mod image_topics;
 pub mod node;
