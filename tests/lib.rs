@@ -12,6 +12,7 @@ mod calibrate;
 mod common;
 mod composition;
 mod compressed;
+mod depth;
 mod handeye;
 mod node_config;
 mod play;

@@ -282,7 +282,7 @@ impl Output<'_> {
         while let Some((left_index, right_index)) = find_pair(sides) {
             let [left, right] = sides;
             let stamp = left.pending[left_index].1.header.stamp;
-            if !force && !(left.has_info(&stamp) && right.has_info(&stamp)) {
+            if !(force || left.has_info(&stamp) && right.has_info(&stamp)) {
                 return Ok(());
             }
             let (log_time_ns, left_image) = left.pending.remove(left_index).unwrap_or_default();
