@@ -69,6 +69,22 @@ def camera_info():
         roi=T['sensor_msgs/msg/RegionOfInterest'](x_offset=10, y_offset=20, height=30, width=40, do_rectify=True))
 
 
+def point_cloud2():
+    points = np.zeros(4, dtype=[('x', '<f4'), ('y', '<f4'), ('z', '<f4'), ('intensity', '<u2'), ('pad', '<u2')])
+    points['x'] = [0.5, 1.0, -1.5, np.nan]
+    points['y'] = [-0.25, 0.0, 0.75, np.nan]
+    points['z'] = [1.5, 2.0, 3.0, np.nan]
+    points['intensity'] = [100, 200, 300, 0]
+    field = T['sensor_msgs/msg/PointField']
+    return T['sensor_msgs/msg/PointCloud2'](
+        header=header('left_optical'), height=2, width=2,
+        fields=[field(name='x', offset=0, datatype=field.FLOAT32, count=1),
+                field(name='y', offset=4, datatype=field.FLOAT32, count=1),
+                field(name='z', offset=8, datatype=field.FLOAT32, count=1),
+                field(name='intensity', offset=12, datatype=field.UINT16, count=1)],
+        is_bigendian=False, point_step=16, row_step=32, data=points.view(np.uint8), is_dense=False)
+
+
 def vector3():
     return T['geometry_msgs/msg/Vector3'](x=1.5, y=-2.25, z=3.0)
 
@@ -146,6 +162,9 @@ SAMPLES = {
         header=header('cam'), format='png', data=np.array([137, 80, 78, 71, 1, 2, 3], dtype=np.uint8))),
     'sensor_msgs__msg__RegionOfInterest': ('sensor_msgs/msg/RegionOfInterest', roi()),
     'sensor_msgs__msg__CameraInfo': ('sensor_msgs/msg/CameraInfo', camera_info()),
+    'sensor_msgs__msg__PointField': ('sensor_msgs/msg/PointField', T['sensor_msgs/msg/PointField'](
+        name='normal', offset=16, datatype=T['sensor_msgs/msg/PointField'].FLOAT32, count=3)),
+    'sensor_msgs__msg__PointCloud2': ('sensor_msgs/msg/PointCloud2', point_cloud2()),
     'geometry_msgs__msg__Vector3': ('geometry_msgs/msg/Vector3', vector3()),
     'geometry_msgs__msg__Point': ('geometry_msgs/msg/Point', point()),
     'geometry_msgs__msg__Quaternion': ('geometry_msgs/msg/Quaternion', quaternion()),

@@ -25,6 +25,8 @@ TYPES = [
     'sensor_msgs/msg/CompressedImage',
     'sensor_msgs/msg/RegionOfInterest',
     'sensor_msgs/msg/CameraInfo',
+    'sensor_msgs/msg/PointField',
+    'sensor_msgs/msg/PointCloud2',
     'geometry_msgs/msg/Vector3',
     'geometry_msgs/msg/Point',
     'geometry_msgs/msg/Quaternion',

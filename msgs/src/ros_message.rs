@@ -10,7 +10,8 @@ pub trait RosMessage {
     /// Full ROS 2 type name, e.g. `sensor_msgs/msg/Image`.
     const TYPE_NAME: &'static str;
 
-    /// This type's own `.msg` field lines (no comments, no constants), each ending in `\n`.
+    /// This type's own `.msg` lines without comments, each ending in `\n`: constants
+    /// first (`uint8 NAME=1`, as rosbags writes them), then fields.
     const DEFINITION: &'static str;
 
     /// Appends, depth first in field order, every message type this one refers to

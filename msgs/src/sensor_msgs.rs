@@ -136,6 +136,79 @@ ros_message!(
     RegionOfInterest
 );
 
+/// `sensor_msgs/msg/PointField`: one field (channel) of each point in a
+/// [`PointCloud2`]: where it lies in the point and what type it has.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct PointField {
+    /// Field name, e.g. `x`, `y`, `z` or `rgb`.
+    pub name: String,
+    /// Byte offset of the field from the start of the point.
+    pub offset: u32,
+    /// Element type, one of the datatype constants ([`PointField::FLOAT32`], ...).
+    pub datatype: u8,
+    /// Number of elements in the field.
+    pub count: u32,
+}
+
+impl PointField {
+    /// `datatype` of a signed 8-bit integer.
+    pub const INT8: u8 = 1;
+    /// `datatype` of an unsigned 8-bit integer.
+    pub const UINT8: u8 = 2;
+    /// `datatype` of a signed 16-bit integer.
+    pub const INT16: u8 = 3;
+    /// `datatype` of an unsigned 16-bit integer.
+    pub const UINT16: u8 = 4;
+    /// `datatype` of a signed 32-bit integer.
+    pub const INT32: u8 = 5;
+    /// `datatype` of an unsigned 32-bit integer.
+    pub const UINT32: u8 = 6;
+    /// `datatype` of a 32-bit float.
+    pub const FLOAT32: u8 = 7;
+    /// `datatype` of a 64-bit float.
+    pub const FLOAT64: u8 = 8;
+}
+
+ros_message!(
+    PointField,
+    "sensor_msgs/msg/PointField",
+    "uint8 INT8=1\nuint8 UINT8=2\nuint8 INT16=3\nuint8 UINT16=4\nuint8 INT32=5\nuint8 UINT32=6\nuint8 FLOAT32=7\nuint8 FLOAT64=8\nstring name\nuint32 offset\nuint8 datatype\nuint32 count\n"
+);
+
+/// `sensor_msgs/msg/PointCloud2`: a set of points, `height` rows of `width` points,
+/// each point `point_step` bytes laid out as `fields` describe. Coordinates are in
+/// metres in the header's frame.
+#[derive(Debug, Clone, PartialEq, Eq, Default, Serialize, Deserialize)]
+pub struct PointCloud2 {
+    /// Acquisition time and the frame of the points.
+    pub header: Header,
+    /// Number of rows; 1 for an unordered cloud.
+    pub height: u32,
+    /// Number of points per row (all points for an unordered cloud).
+    pub width: u32,
+    /// Layout of one point.
+    pub fields: Vec<PointField>,
+    /// Whether multi-byte fields are big-endian.
+    pub is_bigendian: bool,
+    /// Bytes per point.
+    pub point_step: u32,
+    /// Bytes per row.
+    pub row_step: u32,
+    /// `row_step * height` bytes of point data.
+    #[serde(with = "serde_bytes")]
+    pub data: Vec<u8>,
+    /// True if no point is invalid (no NaN or infinite coordinates).
+    pub is_dense: bool,
+}
+
+ros_message!(
+    PointCloud2,
+    "sensor_msgs/msg/PointCloud2",
+    "std_msgs/Header header\nuint32 height\nuint32 width\nsensor_msgs/PointField[] fields\nbool is_bigendian\nuint32 point_step\nuint32 row_step\nuint8[] data\nbool is_dense\n",
+    Header,
+    PointField
+);
+
 /// `sensor_msgs/srv` services.
 pub mod srv {
     use serde::{Deserialize, Serialize};

@@ -21,7 +21,9 @@ use stereocal_msgs::rcl_interfaces::{
 };
 use stereocal_msgs::rosgraph_msgs::Clock;
 use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
-use stereocal_msgs::sensor_msgs::{CameraInfo, CompressedImage, Image, RegionOfInterest};
+use stereocal_msgs::sensor_msgs::{
+    CameraInfo, CompressedImage, Image, PointCloud2, PointField, RegionOfInterest,
+};
 use stereocal_msgs::std_msgs::{self, Header};
 use stereocal_msgs::std_srvs::srv::{TriggerRequest, TriggerResponse};
 use stereocal_msgs::stereo_msgs::DisparityImage;
@@ -90,6 +92,47 @@ fn camera_info() -> CameraInfo {
             width: 40,
             do_rectify: true,
         },
+    }
+}
+
+/// Two rows of two points `x, y, z: f32, intensity: u16` and two bytes of padding;
+/// the last point is invalid (NaN), so the cloud is not dense.
+fn point_cloud2() -> PointCloud2 {
+    let points: [([f32; 3], u16); 4] = [
+        ([0.5, -0.25, 1.5], 100),
+        ([1.0, 0.0, 2.0], 200),
+        ([-1.5, 0.75, 3.0], 300),
+        ([f32::NAN; 3], 0),
+    ];
+    let field = |name: &str, offset, datatype| PointField {
+        name: name.to_owned(),
+        offset,
+        datatype,
+        count: 1,
+    };
+    PointCloud2 {
+        header: header("left_optical"),
+        height: 2,
+        width: 2,
+        fields: vec![
+            field("x", 0, PointField::FLOAT32),
+            field("y", 4, PointField::FLOAT32),
+            field("z", 8, PointField::FLOAT32),
+            field("intensity", 12, PointField::UINT16),
+        ],
+        is_bigendian: false,
+        point_step: 16,
+        row_step: 32,
+        data: points
+            .iter()
+            .flat_map(|(xyz, intensity)| {
+                xyz.iter()
+                    .flat_map(|c| c.to_le_bytes())
+                    .chain(intensity.to_le_bytes())
+                    .chain([0, 0])
+            })
+            .collect(),
+        is_dense: false,
     }
 }
 
@@ -209,6 +252,16 @@ fn sensor_msgs_match_rosbags() {
     );
     check(roi(), fixture!("sensor_msgs__msg__RegionOfInterest"));
     check(camera_info(), fixture!("sensor_msgs__msg__CameraInfo"));
+    check(
+        PointField {
+            name: "normal".to_owned(),
+            offset: 16,
+            datatype: PointField::FLOAT32,
+            count: 3,
+        },
+        fixture!("sensor_msgs__msg__PointField"),
+    );
+    check(point_cloud2(), fixture!("sensor_msgs__msg__PointCloud2"));
 }
 
 #[test]

@@ -9,7 +9,7 @@ use rustdds::{CDRDeserializerAdapter, CDRSerializerAdapter};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use stereocal_msgs::cdr;
-use stereocal_msgs::sensor_msgs::{CameraInfo, CompressedImage, Image};
+use stereocal_msgs::sensor_msgs::{CameraInfo, CompressedImage, Image, PointCloud2};
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_msgs::tf2_msgs::TFMessage;
 
@@ -45,6 +45,7 @@ fn rustdds_adapters_give_the_ros_bytes() {
         "fixtures/sensor_msgs__msg__CompressedImage.cdr"
     ));
     check::<CameraInfo>(include_bytes!("fixtures/sensor_msgs__msg__CameraInfo.cdr"));
+    check::<PointCloud2>(include_bytes!("fixtures/sensor_msgs__msg__PointCloud2.cdr"));
     check::<TFMessage>(include_bytes!("fixtures/tf2_msgs__msg__TFMessage.cdr"));
     check::<DisparityImage>(include_bytes!(
         "fixtures/stereo_msgs__msg__DisparityImage.cdr"

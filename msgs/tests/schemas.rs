@@ -13,7 +13,9 @@ use stereocal_msgs::rcl_interfaces::{
 };
 use stereocal_msgs::rosgraph_msgs::Clock;
 use stereocal_msgs::sensor_msgs::srv::{SetCameraInfoRequest, SetCameraInfoResponse};
-use stereocal_msgs::sensor_msgs::{CameraInfo, CompressedImage, Image, RegionOfInterest};
+use stereocal_msgs::sensor_msgs::{
+    CameraInfo, CompressedImage, Image, PointCloud2, PointField, RegionOfInterest,
+};
 use stereocal_msgs::std_msgs::{self, Header};
 use stereocal_msgs::std_srvs::srv::{TriggerRequest, TriggerResponse};
 use stereocal_msgs::stereo_msgs::DisparityImage;
@@ -40,6 +42,8 @@ fn message_schemas_match_rosbags() {
     check_schema!(CompressedImage, "sensor_msgs__msg__CompressedImage");
     check_schema!(RegionOfInterest, "sensor_msgs__msg__RegionOfInterest");
     check_schema!(CameraInfo, "sensor_msgs__msg__CameraInfo");
+    check_schema!(PointField, "sensor_msgs__msg__PointField");
+    check_schema!(PointCloud2, "sensor_msgs__msg__PointCloud2");
     check_schema!(Vector3, "geometry_msgs__msg__Vector3");
     check_schema!(Point, "geometry_msgs__msg__Point");
     check_schema!(Quaternion, "geometry_msgs__msg__Quaternion");
