@@ -8,7 +8,7 @@ use stereocal::cli::depth::{DepthArgs, PathsArg};
 use stereocal::cli::synth::{SceneArg, SynthArgs};
 use stereocal::depth::stage::{DepthRejection, DepthStage};
 use stereocal_msgs::cdr;
-use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
+use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg, PointCloud2};
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_rosbag::{BagReader, TopicFilter};
 use stereocal_vision::stereo::{ReprojectionError, SgmParams, StereoError};
@@ -75,21 +75,41 @@ fn disparities_of_a_rendered_bag_are_near_the_truth() {
     let disparities: Vec<DisparityImage> = messages(&out, "/stereo/disparity");
     assert_eq!(disparities.len(), 2);
     // Every input topic is copied.
-    assert_eq!(messages::<ImageMsg>(&out, "/stereo/right/image_rect").len(), 2);
+    assert_eq!(
+        messages::<ImageMsg>(&out, "/stereo/right/image_rect").len(),
+        2
+    );
+    let clouds: Vec<PointCloud2> = messages(&out, "/stereo/points2");
+    assert_eq!(clouds.len(), 2);
     for (index, (msg, left)) in disparities.iter().zip(&lefts).enumerate() {
         assert_eq!(msg.header, left.header);
-        assert_eq!((msg.image.encoding.as_str(), msg.image.width, msg.image.height), ("32FC1", 320, 240));
+        assert_eq!(
+            (
+                msg.image.encoding.as_str(),
+                msg.image.width,
+                msg.image.height
+            ),
+            ("32FC1", 320, 240)
+        );
         // Half the focal length of the 640-pixel rig, the same 9 cm baseline.
         assert_eq!((msg.f, msg.t), (300.0, 0.09));
         assert_eq!((msg.min_disparity, msg.max_disparity), (0.0, 63.0));
-        assert_eq!((msg.valid_window.x_offset, msg.valid_window.width), (0, 320));
+        assert_eq!(
+            (msg.valid_window.x_offset, msg.valid_window.width),
+            (0, 320)
+        );
 
-        let (width, height, truth) =
-            read_pfm(&dir.path().join(format!("truth/frame_{index:03}_disparity.pfm")));
+        let (width, height, truth) = read_pfm(
+            &dir.path()
+                .join(format!("truth/frame_{index:03}_disparity.pfm")),
+        );
         assert_eq!((width, height), (320, 240));
-        let visible = image::open(dir.path().join(format!("truth/frame_{index:03}_visible.png")))
-            .unwrap()
-            .into_luma8();
+        let visible = image::open(
+            dir.path()
+                .join(format!("truth/frame_{index:03}_visible.png")),
+        )
+        .unwrap()
+        .into_luma8();
         let values: Vec<f32> = msg
             .image
             .data
@@ -118,7 +138,44 @@ fn disparities_of_a_rendered_bag_are_near_the_truth() {
         // the half-size rig has half the texture detail per pixel.
         assert!(bad2 < 0.15, "frame {index}: bad-2.0 {bad2}");
         assert!(epe < 0.6, "frame {index}: EPE {epe}");
-        assert!(invalid > 0, "frame {index}: the weakly textured panel cannot all match");
+        assert!(
+            invalid > 0,
+            "frame {index}: the weakly textured panel cannot all match"
+        );
+
+        // The organized cloud: each point at the truth's depth where the disparity is
+        // right, NaN where there is none.
+        let cloud = &clouds[index];
+        assert_eq!(cloud.header, left.header);
+        assert_eq!(
+            (cloud.width, cloud.height, cloud.point_step, cloud.row_step),
+            (320, 240, 12, 3840)
+        );
+        let names: Vec<&str> = cloud.fields.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(names, ["x", "y", "z"]);
+        let point = |i: usize| -> [f32; 3] {
+            let at = i * 12;
+            std::array::from_fn(|k| {
+                f32::from_le_bytes(cloud.data[at + 4 * k..at + 4 * k + 4].try_into().unwrap())
+            })
+        };
+        for (i, &d) in values.iter().enumerate() {
+            let p = point(i);
+            if d < msg.min_disparity || d <= 0.0 {
+                // No disparity, or a point at infinity.
+                assert!(p.iter().all(|v| v.is_nan()), "pixel {i}: {p:?}");
+            } else {
+                // z = f * T / d, and x, y through the principal point (159.5, 119.5).
+                let z = msg.f * msg.t / d;
+                assert!(
+                    (p[2] - z).abs() <= 1e-4 * z,
+                    "pixel {i}: {p:?} against z {z}"
+                );
+                let (x, y) = ((i % 320) as f32, (i / 320) as f32);
+                assert!((p[0] - (x - 159.5) * z / 300.0).abs() < 1e-4 * z.max(1.0));
+                assert!((p[1] - (y - 119.5) * z / 300.0).abs() < 1e-4 * z.max(1.0));
+            }
+        }
     }
 }
 
@@ -140,7 +197,10 @@ fn a_disparity_range_the_image_cannot_hold_is_refused() {
     let mut args = depth_args(&bag, &dir.path().join("c"));
     args.left_topic = Some("/stereo/left/image_raw".into());
     let message = format!("{:#}", stereocal::cli::depth::run(&args).unwrap_err());
-    assert!(message.contains("no sensor_msgs/Image topic /stereo/left/image_raw"), "{message}");
+    assert!(
+        message.contains("no sensor_msgs/Image topic /stereo/left/image_raw"),
+        "{message}"
+    );
 }
 
 #[test]
@@ -157,7 +217,11 @@ fn the_stage_names_what_is_wrong_with_a_pair() {
         ..SgmParams::default()
     };
     let mut stage = DepthStage::new(params);
-    assert!(stage.disparity(&left, &left_info, &right, &right_info).is_ok());
+    assert!(
+        stage
+            .disparity(&left, &left_info, &right, &right_info)
+            .is_ok()
+    );
 
     // A vertical rig: rows are not epipolar lines.
     let mut vertical = right_info.clone();
@@ -172,16 +236,26 @@ fn the_stage_names_what_is_wrong_with_a_pair() {
     other.p[0] = 310.0;
     assert!(matches!(
         stage.disparity(&left, &left_info, &right, &other),
-        Err(DepthRejection::Geometry(ReprojectionError::NotRectified { .. }))
+        Err(DepthRejection::Geometry(
+            ReprojectionError::NotRectified { .. }
+        ))
     ));
     // Images of different encodings.
     let mut colour = right.clone();
     colour.encoding = "mono16".into();
     colour.width /= 2;
     colour.step = right.step;
-    let rejection = stage.disparity(&left, &left_info, &colour, &right_info).unwrap_err();
-    assert!(matches!(rejection, DepthRejection::PairMismatch { .. }), "{rejection}");
-    assert!(rejection.to_string().contains("320x240 mono8"), "{rejection}");
+    let rejection = stage
+        .disparity(&left, &left_info, &colour, &right_info)
+        .unwrap_err();
+    assert!(
+        matches!(rejection, DepthRejection::PairMismatch { .. }),
+        "{rejection}"
+    );
+    assert!(
+        rejection.to_string().contains("320x240 mono8"),
+        "{rejection}"
+    );
     // An image whose camera_info is of another size.
     let mut small = left_info.clone();
     small.width = 160;
@@ -206,5 +280,9 @@ fn the_stage_names_what_is_wrong_with_a_pair() {
         Err(DepthRejection::Matching(StereoError::DisparityRange { .. }))
     ));
     // The stage still matches the good pair afterwards.
-    assert!(stage.disparity(&left, &left_info, &right, &right_info).is_ok());
+    assert!(
+        stage
+            .disparity(&left, &left_info, &right, &right_info)
+            .is_ok()
+    );
 }

@@ -21,7 +21,7 @@ enum Command {
     /// by stamp, every method, the best chosen; writes DIR/handeye.yaml.
     Handeye(cli::handeye::HandEyeArgs),
     /// The disparity of every rectified stereo pair of a bag, written as
-    /// <ns>/disparity.
+    /// <ns>/disparity and <ns>/points2.
     Depth(cli::depth::DepthArgs),
     /// The main job on the bundled stereo bag: rectify it offline and through two
     /// rectify nodes over DDS, and measure row alignment against ground truth.

@@ -1,5 +1,6 @@
 //! `stereocal depth`: the disparity of every rectified stereo pair of a bag, written as
-//! `<ns>/disparity` (stereo_msgs/DisparityImage) beside copies of all input topics.
+//! `<ns>/disparity` (stereo_msgs/DisparityImage) and `<ns>/points2` (an organized
+//! sensor_msgs/PointCloud2) beside copies of all input topics.
 //!
 //! Pairs are the left and right images of one stamp; each is matched with the
 //! camera_info of its side with that stamp, or the latest one before it. The bag is
@@ -15,12 +16,12 @@ use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::cdr;
-use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
+use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg, PointCloud2};
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_rosbag::{BagReader, BagWriter, OfferedQos, TopicFilter, TopicId, WriterOptions};
 use stereocal_vision::stereo::{Paths, SgmParams};
 
-use crate::depth::stage::{DepthStage, disparity_msg};
+use crate::depth::stage::{DepthStage, disparity_msg, points_msg};
 
 /// Images per side that may wait for their partner.
 const MAX_PENDING: usize = 8;
@@ -65,7 +66,8 @@ pub struct DepthArgs {
     /// Half-size of the sub-pixel refinement's window (0: none).
     #[arg(long, default_value_t = SgmParams::default().refine_radius)]
     pub refine_radius: usize,
-    /// Print one JSON object per pair (stamp, valid density, milliseconds) and a summary.
+    /// Print one JSON object per pair (stamp, valid density, milliseconds of matching)
+    /// and a summary.
     #[arg(long)]
     pub json: bool,
     /// Replace the output bag if it exists.
@@ -121,7 +123,12 @@ impl Side {
             .iter()
             .rev()
             .find(|i| stamp_key(&i.header.stamp) == key)
-            .or_else(|| self.infos.iter().rev().find(|i| stamp_key(&i.header.stamp) <= key))
+            .or_else(|| {
+                self.infos
+                    .iter()
+                    .rev()
+                    .find(|i| stamp_key(&i.header.stamp) <= key)
+            })
             .or_else(|| self.infos.back())
     }
 }
@@ -149,7 +156,9 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
         ..SgmParams::default()
     };
     // Parameters that do not depend on the image are refused before reading the bag.
-    params.validate(usize::MAX).context("invalid matching parameters")?;
+    params
+        .validate(usize::MAX)
+        .context("invalid matching parameters")?;
     let reader =
         BagReader::open(&args.bag).with_context(|| format!("opening {}", args.bag.display()))?;
     let (left_topic, right_topic) = pair_topics(&reader, args)?;
@@ -176,6 +185,10 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
     }
     let disparity_id =
         writer.add_message_topic::<DisparityImage>(&disparity_topic, &OfferedQos::default())?;
+    let points_id = writer.add_message_topic::<PointCloud2>(
+        &format!("{output_ns}/points2"),
+        &OfferedQos::default(),
+    )?;
 
     let progress = if args.json {
         ProgressBar::hidden()
@@ -190,6 +203,7 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
     let mut stage = DepthStage::new(params);
     let mut output = Output {
         disparity_id,
+        points_id,
         json: args.json,
         progress: &progress,
         summary: Summary::default(),
@@ -198,7 +212,12 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
     for message in reader.messages(&TopicFilter::All) {
         let message = message.context("reading the bag")?;
         if let Some(&id) = copy_ids.get(&*message.topic) {
-            writer.write_timed(id, message.log_time_ns, message.publish_time_ns, &message.data)?;
+            writer.write_timed(
+                id,
+                message.log_time_ns,
+                message.publish_time_ns,
+                &message.data,
+            )?;
         }
         for side in sides.iter_mut() {
             if *message.topic == side.info_topic {
@@ -210,7 +229,9 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
                         side.infos.push_back(info);
                     }
                     Err(e) => {
-                        progress.suspend(|| eprintln!("skipped a camera_info on {}: {e}", message.topic));
+                        progress.suspend(|| {
+                            eprintln!("skipped a camera_info on {}: {e}", message.topic)
+                        });
                     }
                 }
             } else if *message.topic == side.image_topic {
@@ -224,7 +245,8 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
                     }
                     Err(e) => {
                         output.summary.skipped += 1;
-                        progress.suspend(|| eprintln!("skipped an image on {}: {e}", message.topic));
+                        progress
+                            .suspend(|| eprintln!("skipped an image on {}: {e}", message.topic));
                     }
                 }
             }
@@ -263,6 +285,7 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
 /// Where matched pairs go, and what happened to them.
 struct Output<'a> {
     disparity_id: TopicId,
+    points_id: TopicId,
     json: bool,
     progress: &'a ProgressBar,
     summary: Summary,
@@ -295,7 +318,8 @@ impl Output<'_> {
                 self.summary.unpaired += (before - side.pending.len()) as u64;
             }
             self.progress.inc(1);
-            let (Some(left_info), Some(right_info)) = (left.info_for(&stamp), right.info_for(&stamp))
+            let (Some(left_info), Some(right_info)) =
+                (left.info_for(&stamp), right.info_for(&stamp))
             else {
                 self.skip(&stamp, "no camera_info on both sides".into());
                 continue;
@@ -306,6 +330,8 @@ impl Output<'_> {
                     let milliseconds = start.elapsed().as_secs_f64() * 1e3;
                     let msg = disparity_msg(&frame, left_image.header.clone());
                     writer.write_message(self.disparity_id, log_time_ns, &msg)?;
+                    let points = points_msg(&frame, left_image.header.clone());
+                    writer.write_message(self.points_id, log_time_ns, &points)?;
                     self.summary.pairs += 1;
                     if self.json {
                         let record = PairRecord {
@@ -336,13 +362,19 @@ impl Output<'_> {
 
 /// Indices of a left and a right image with the same stamp, if the sides hold one.
 fn find_pair(sides: &[Side; 2]) -> Option<(usize, usize)> {
-    sides[0].pending.iter().enumerate().find_map(|(i, (_, left))| {
-        sides[1]
-            .pending
-            .iter()
-            .position(|(_, right)| stamp_key(&right.header.stamp) == stamp_key(&left.header.stamp))
-            .map(|j| (i, j))
-    })
+    sides[0]
+        .pending
+        .iter()
+        .enumerate()
+        .find_map(|(i, (_, left))| {
+            sides[1]
+                .pending
+                .iter()
+                .position(|(_, right)| {
+                    stamp_key(&right.header.stamp) == stamp_key(&left.header.stamp)
+                })
+                .map(|j| (i, j))
+        })
 }
 
 /// The left and right image topics: as given, or the bag's only `.../left/image_rect`

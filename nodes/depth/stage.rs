@@ -4,7 +4,9 @@
 //! the stage stays usable for the next pair.
 
 use nalgebra::Matrix3x4;
-use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg, RegionOfInterest};
+use stereocal_msgs::sensor_msgs::{
+    CameraInfo, Image as ImageMsg, PointCloud2, PointField, RegionOfInterest,
+};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_vision::image::{Image, Samples};
@@ -31,7 +33,9 @@ pub enum DepthRejection {
         error: ImageMsgError,
     },
     /// The two images differ in size or encoding.
-    #[error("the left image is {left} but the right is {right}: a pair has one size and one encoding")]
+    #[error(
+        "the left image is {left} but the right is {right}: a pair has one size and one encoding"
+    )]
     PairMismatch {
         /// Left size and encoding.
         left: String,
@@ -39,7 +43,9 @@ pub enum DepthRejection {
         right: String,
     },
     /// An image and its camera_info disagree on the size.
-    #[error("{side} image is {image_width}x{image_height} but its camera_info is {info_width}x{info_height}")]
+    #[error(
+        "{side} image is {image_width}x{image_height} but its camera_info is {info_width}x{info_height}"
+    )]
     InfoSize {
         /// `left` or `right`.
         side: &'static str,
@@ -203,7 +209,11 @@ pub fn disparity_msg(frame: &DisparityFrame, header: Header) -> DisparityImage {
         valid_window: RegionOfInterest {
             x_offset: if valid_width > 0 { first as u32 } else { 0 },
             y_offset: 0,
-            height: if valid_width > 0 { map.height as u32 } else { 0 },
+            height: if valid_width > 0 {
+                map.height as u32
+            } else {
+                0
+            },
             width: valid_width as u32,
             do_rectify: false,
         },
@@ -223,5 +233,33 @@ fn disparity_image(values: &[f32], width: usize, height: usize, header: Header) 
         is_bigendian: 0,
         step: (width * 4) as u32,
         data: values.iter().flat_map(|v| v.to_le_bytes()).collect(),
+    }
+}
+
+/// The organized [`PointCloud2`] of `frame` in the left camera's rectified optical
+/// frame: one point per pixel, row after row, fields `x`, `y`, `z` (float32, metres,
+/// 12 bytes a point, no padding), NaN where a pixel has no disparity.
+pub fn points_msg(frame: &DisparityFrame, header: Header) -> PointCloud2 {
+    let points = frame.reprojection.points(&frame.map);
+    let field = |name: &str, offset: u32| PointField {
+        name: name.to_owned(),
+        offset,
+        datatype: PointField::FLOAT32,
+        count: 1,
+    };
+    let point_step = 12;
+    PointCloud2 {
+        header,
+        height: frame.map.height as u32,
+        width: frame.map.width as u32,
+        fields: vec![field("x", 0), field("y", 4), field("z", 8)],
+        is_bigendian: false,
+        point_step,
+        row_step: point_step * frame.map.width as u32,
+        data: points
+            .iter()
+            .flat_map(|p| p.iter().flat_map(|v| v.to_le_bytes()))
+            .collect(),
+        is_dense: false,
     }
 }
