@@ -19,5 +19,6 @@ mod pnp_opencv_failures;
 mod remap_opencv_fixture;
 mod stereo_rectify_geometry;
 mod stereo_rectify_opencv;
+mod stereo_synthetic;
 mod synth_scenes;
 mod synth_truth;
