@@ -31,11 +31,12 @@ use stereocal_runtime::shutdown::Shutdown;
 type NodeMain = fn(Vec<String>) -> anyhow::Result<()>;
 
 /// The nodes a composition can hold, by the name the file gives them.
-const NODES: [(&str, NodeMain); 4] = [
+const NODES: [(&str, NodeMain); 5] = [
     ("rectify", |args| crate::rectify::node::run(args)),
     ("calibrate", |args| crate::calibrate::node::run(args)),
     ("pose", |args| crate::pose::node::run(args)),
     ("handeye", |args| crate::handeye::node::run(args)),
+    ("disparity", |args| crate::depth::node::run(args)),
 ];
 
 /// The logger name of the composition itself.

@@ -36,6 +36,13 @@ pub enum NodeCommand {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         args: Vec<String>,
     },
+    /// The disparity node: `left/image_rect` + `right/image_rect` and their camera_infos
+    /// in, `disparity` out, as stereo_image_proc's DisparityNode.
+    Disparity {
+        /// ROS arguments, as for the `disparity_node` executable.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
     /// Several nodes in this process, as a composition file lists them, like a
     /// component container.
     Compose {
@@ -54,6 +61,7 @@ pub fn run(command: NodeCommand) -> anyhow::Result<()> {
         NodeCommand::Calibrate { args } => crate::calibrate::node::run(args),
         NodeCommand::Pose { args } => crate::pose::node::run(args),
         NodeCommand::Handeye { args } => crate::handeye::node::run(args),
+        NodeCommand::Disparity { args } => crate::depth::node::run(args),
         NodeCommand::Compose { file, args } => crate::composition::run(&file, &args),
     }
 }

@@ -14,7 +14,7 @@ use stereocal_rosbag::{BagReader, TopicFilter};
 use stereocal_vision::stereo::{ReprojectionError, SgmParams, StereoError};
 
 /// Disparity truth of a frame: the PFM `stereocal synth` writes, rows top to bottom.
-fn read_pfm(path: &Path) -> (usize, usize, Vec<f32>) {
+pub(super) fn read_pfm(path: &Path) -> (usize, usize, Vec<f32>) {
     let bytes = std::fs::read(path).unwrap();
     let mut lines = bytes.splitn(4, |&b| b == b'\n');
     assert_eq!(lines.next().unwrap(), b"Pf");
@@ -32,7 +32,7 @@ fn read_pfm(path: &Path) -> (usize, usize, Vec<f32>) {
     (width, height, values)
 }
 
-fn synthesize(dir: &Path, frames: usize) {
+pub(super) fn synthesize(dir: &Path, frames: usize) {
     let mut args = SynthArgs::new(SceneArg::Depth, dir.to_path_buf(), 3, frames);
     args.width = Some(320);
     args.height = Some(240);
@@ -54,7 +54,7 @@ fn depth_args(bag: &Path, out: &Path) -> DepthArgs {
     }
 }
 
-fn messages<M: serde::de::DeserializeOwned>(bag: &Path, topic: &str) -> Vec<M> {
+pub(super) fn messages<M: serde::de::DeserializeOwned>(bag: &Path, topic: &str) -> Vec<M> {
     let reader = BagReader::open(bag).unwrap();
     reader
         .messages(&TopicFilter::All)
