@@ -101,6 +101,7 @@ from rclpy.qos import (
 from sensor_msgs.msg import CameraInfo, CompressedImage, Image, RegionOfInterest
 from sensor_msgs.srv import SetCameraInfo
 from std_msgs.msg import Header, String
+from stereo_msgs.msg import DisparityImage
 
 ROOT = Path(__file__).resolve().parent.parent
 RELIABLE = QoSProfile(depth=10)
@@ -184,8 +185,9 @@ def common_parameter_checks(checks, label, params, documented, read_only, constr
         some = sorted(documented)[:2]
         got, _ = params.list(prefixes=some, depth=1)
         require(got == some, f"list_parameters(prefixes={some}, depth=1): {got}")
-        got, _ = params.list(prefixes=[some[0][:3]])
-        require(got == [], f"prefix {some[0][:3]!r} matches no whole name, yet: {got}")
+        part = some[0][:-1]
+        got, _ = params.list(prefixes=[part])
+        require(got == [], f"prefix {part!r} matches no whole name, yet: {got}")
         got, _ = params.list(depth=1)
         flat = [n for n in names if "." not in n]
         require(got == flat, f"list_parameters(depth=1): {got}, not {flat}")
@@ -1323,6 +1325,212 @@ def handeye_checks(checks, peer, rosout, h, frames, robot, offline, truth, tmp):
     describe_all_check(checks, label, h.params)
 
 
+# ---------------------------------------------------------------------------------------
+# disparity_node
+
+DISPARITY = "/stereo/disparity"
+#: Rendered rectified pairs the disparity check replays.
+DEPTH_FRAMES = 2
+
+
+class Disparity:
+    """disparity_node in /stereo, and rclpy around it: publishers of the rectified pairs
+    and their camera_infos, a default reliable and a best-effort subscriber of
+    disparity (stereo_msgs/DisparityImage)."""
+    label, name, namespace = "disparity_node", "disparity_node", "/stereo"
+    fqn = "/stereo/disparity_node"
+
+    def __init__(self, peer, binary):
+        self.peer = peer
+        node = peer.node
+        self.images = [node.create_publisher(Image, f"/stereo/{side}/image_rect", RELIABLE)
+                       for side in ("left", "right")]
+        self.infos = [node.create_publisher(CameraInfo, f"/stereo/{side}/camera_info", RELIABLE)
+                      for side in ("left", "right")]
+        self.reliable = peer.subscribe(DisparityImage, DISPARITY, RELIABLE)
+        self.sensor = peer.subscribe(DisparityImage, DISPARITY, qos_profile_sensor_data)
+        self.documented = {
+            "stereo_algorithm": 1, "min_disparity": 0, "disparity_range": 64,
+            "speckle_size": 100, "speckle_range": 2, "disp12_max_diff": 1,
+            "uniqueness_ratio": 5.0, "P1": 10.0, "P2": 120.0, "sgbm_mode": 1,
+            "refine_radius": 4, "approximate_sync": False,
+            "approximate_sync_tolerance_seconds": 0.0, "queue_size": 5,
+            "image_transport": "raw",
+        }
+        # stereocal depth matches with the library's defaults, stereo_image_proc's
+        # differ in uniqueness_ratio, speckle_range and disp12_max_diff: given here.
+        self.command = [binary, "--ros-args", "-r", "__ns:=/stereo", "-p", "disparity_range:=64",
+                        "-p", "uniqueness_ratio:=5.0", "-p", "speckle_range:=2",
+                        "-p", "disp12_max_diff:=1"]
+        self.process = NodeProcess(self.command, peer.domain)
+        peer.watch(self.process)
+        self.params = Parameters(peer, self.fqn)
+
+    def received(self, stamp):
+        got = [next((m for m in inbox.messages if stamp_of(m) == stamp), None)
+               for inbox in (self.reliable, self.sensor)]
+        return got if all(got) else None
+
+    def send_until(self, pair, condition, what):
+        def send():
+            for publisher, info in zip(self.infos, pair[2:]):
+                publisher.publish(info)
+            for publisher, image in zip(self.images, pair[:2]):
+                publisher.publish(image)
+        return self.peer.send_until(send, condition, lambda: f"{what} (pair {stamp_of(pair[0])})")
+
+
+def depth_session(stereocal, tmp):
+    """Renders DEPTH_FRAMES rectified pairs (320x240) and runs `stereocal depth` on them:
+    the pairs as rclpy messages, and the offline disparities by stamp (read by rosbags)."""
+    out = Path(tmp)
+    subprocess.run([stereocal, "synth", "--scene", "depth", "--out", str(out / "synth"),
+                    "--frames", str(DEPTH_FRAMES), "--width", "320", "--height", "240"],
+                   check=True, capture_output=True)
+    subprocess.run([stereocal, "depth", "--bag", str(out / "synth" / "bag"),
+                    "--out", str(out / "depth"), "--disparity-range", "64"],
+                   check=True, capture_output=True)
+    sides = {}
+    for topic, msg in bag_messages(out / "synth" / "bag", [
+            "/stereo/left/image_rect", "/stereo/right/image_rect",
+            "/stereo/left/camera_info", "/stereo/right/camera_info"]):
+        sides.setdefault(topic, []).append(msg)
+    pairs = []
+    for left, right, left_info, right_info in zip(
+            sides["/stereo/left/image_rect"], sides["/stereo/right/image_rect"],
+            sides["/stereo/left/camera_info"], sides["/stereo/right/camera_info"]):
+        left_image, left_camera = rclpy_frame(left, left_info)
+        right_image, right_camera = rclpy_frame(right, right_info)
+        pairs.append((left_image, right_image, left_camera, right_camera))
+    offline = {stamp_of(m): m for _, m in bag_messages(out / "depth", [DISPARITY])}
+    return pairs, offline
+
+
+def check_disparity(checks, peer, rosout, binary, stereocal):
+    label = Disparity.label
+    setup = f"setup: stereocal synth --scene depth ({DEPTH_FRAMES} pairs), stereocal depth"
+    with tempfile.TemporaryDirectory() as tmp:
+        with checks.check(label, setup) as note:
+            pairs, offline = depth_session(stereocal, tmp)
+            require(len(pairs) == DEPTH_FRAMES and len(offline) == DEPTH_FRAMES,
+                    f"{len(pairs)} pairs in the bag, {len(offline)} offline disparities")
+            note(f"{pairs[0][0].width}x{pairs[0][0].height} {pairs[0][0].encoding}")
+        if not checks.passed(label, setup):
+            return checks.skip(label, "the other checks", "no synthesized pairs")
+        d = Disparity(peer, binary)
+        try:
+            disparity_checks(checks, peer, rosout, d, pairs, offline)
+        finally:
+            stop_and_check(checks, peer, d.process, label, d.name, d.namespace)
+
+
+def disparity_checks(checks, peer, rosout, d, pairs, offline):
+    label, fqn = d.label, d.fqn
+    if not discovered(checks, peer, label, d.name, d.namespace):
+        return checks.skip(label, "the other checks", "the node was not discovered")
+
+    with checks.check(label, "graph: topics, services and their types"):
+        graph_check(peer, d.name, d.namespace, {
+            "publishers": {DISPARITY: ["stereo_msgs/msg/DisparityImage"],
+                           "/rosout": ["rcl_interfaces/msg/Log"],
+                           "/parameter_events": ["rcl_interfaces/msg/ParameterEvent"]},
+            "subscribers": {f"/stereo/{side}/{name}": [kind]
+                            for side in ("left", "right")
+                            for name, kind in (("image_rect", "sensor_msgs/msg/Image"),
+                                               ("camera_info", "sensor_msgs/msg/CameraInfo"))},
+            "services": parameter_services(fqn),
+            "clients": {},
+        })
+
+    session_check = (f"QoS: reliable and best-effort subscribers get the disparity of "
+                     f"{DEPTH_FRAMES} pairs")
+    answers = {}
+    with checks.check(label, session_check) as note:
+        peer.wait_until(lambda: all(p.get_subscription_count() > 0
+                                    for p in (*d.images, *d.infos)),
+                        "disparity_node's image and camera_info subscriptions")
+        for pair in pairs:
+            stamp = stamp_of(pair[0])
+            answers[stamp] = d.send_until(pair, lambda: d.received(stamp),
+                                          "disparity on both subscribers")
+        note(f"received {d.reliable.count} (reliable), {d.sensor.count} (best-effort)")
+    if not checks.passed(label, session_check):
+        return checks.skip(label, "the other checks", "no disparities to check")
+
+    with checks.check(label, "disparity: the left image's header, 32FC1, f, T, range, a "
+                             "valid_window inside the image, equal to stereocal depth's") as note:
+        for stamp, (reliable, sensor) in answers.items():
+            want = offline[stamp]
+            for msg in (reliable, sensor):
+                require(msg.header.frame_id == want.header.frame_id,
+                        f"pair {stamp}: frame_id {msg.header.frame_id!r}")
+                require(msg.image.encoding == "32FC1" and msg.image.width == 320
+                        and msg.image.height == 240 and msg.image.step == 4 * 320,
+                        f"pair {stamp}: image {msg.image.encoding} {msg.image.width}x"
+                        f"{msg.image.height} step {msg.image.step}")
+                require((msg.f, msg.t, msg.min_disparity, msg.max_disparity, msg.delta_d)
+                        == (want.f, want.t, want.min_disparity, want.max_disparity,
+                            want.delta_d),
+                        f"pair {stamp}: f {msg.f}, T {msg.t}, range {msg.min_disparity}.."
+                        f"{msg.max_disparity}, delta_d {msg.delta_d}")
+                window = msg.valid_window
+                require(window.x_offset + window.width <= 320
+                        and window.y_offset + window.height <= 240,
+                        f"pair {stamp}: valid_window {window}")
+                got = np.frombuffer(bytes(msg.image.data), dtype="<f4")
+                require(np.array_equal(got, np.frombuffer(want.image.data.tobytes(), dtype="<f4")),
+                        f"pair {stamp}: disparities differ from stereocal depth's")
+            valid = np.frombuffer(bytes(reliable.image.data), dtype="<f4") >= reliable.min_disparity
+            note(f"f {reliable.f:g} px, T {reliable.t:g} m, {valid.mean():.1%} valid")
+
+    with checks.check(label, "a pair of a vertical rig: no disparity, the reason on "
+                             "/rosout, the next pair matched") as note:
+        bad = copy.deepcopy(pairs[0])
+        bad_stamp = (100, 0)
+        for msg in bad:
+            msg.header = header(bad_stamp, msg.header.frame_id)
+        bad[3].p = [*bad[3].p[:3], 0.0, *bad[3].p[4:7], -27.0, *bad[3].p[8:]]
+        d.send_until(bad, lambda: any("vertical" in m.msg for m in rosout.messages
+                                      if m.name.endswith("disparity_node")),
+                     "a warning naming the vertical rig on /rosout")
+        after = copy.deepcopy(pairs[1])
+        after_stamp = (101, 0)
+        for msg in after:
+            msg.header = header(after_stamp, msg.header.frame_id)
+        d.send_until(after, lambda: d.received(after_stamp), "the pair after")
+        require(d.received(bad_stamp) is None and not any(
+            stamp_of(m) == bad_stamp for m in d.reliable.messages),
+            "a disparity was published for the vertical rig")
+        note(next(m.msg for m in rosout.messages if "vertical" in m.msg))
+
+    common_parameter_checks(
+        checks, label, d.params, d.documented,
+        read_only=list(d.documented),
+        constraints={"image_transport": ["raw", "compressed"]},
+        refuse=["disparity_range", "P2"])
+
+    with checks.check(label, "parameters: disparity_range 5000 (out of range) refused at "
+                             "start-up") as note:
+        [descriptor] = d.params.describe(["disparity_range"])
+        [described] = descriptor.integer_range
+        require(not described.from_value <= 5000 <= described.to_value,
+                f"5000 is within the described range {described}")
+        refused = NodeProcess([*d.command, "-p", "disparity_range:=5000"], peer.domain)
+        try:
+            code = refused.process.wait(timeout=TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            code = None
+        refused.stop()
+        require(code not in (None, 0) and "disparity_range" in refused.logs(),
+                lambda: "disparity_node started with disparity_range:=5000: "
+                        + ("still running" if code is None else f"exit code {code}")
+                        + f"\n{refused.logs()[-2000:]}")
+        note(f"described range {described.from_value}..{described.to_value} step "
+             f"{described.step}; exit code {code}")
+
+    describe_all_check(checks, label, d.params)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rectify-node", default=str(ROOT / "target" / "debug" / "rectify_node"))
@@ -1331,17 +1539,19 @@ def main():
     parser.add_argument("--pose-node", default=str(ROOT / "target" / "debug" / "pose_node"))
     parser.add_argument("--handeye-node",
                         default=str(ROOT / "target" / "debug" / "handeye_node"))
+    parser.add_argument("--disparity-node",
+                        default=str(ROOT / "target" / "debug" / "disparity_node"))
     parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
-    parser.add_argument("--only", choices=("rectify", "calibrate", "pose", "handeye"))
+    parser.add_argument("--only", choices=("rectify", "calibrate", "pose", "handeye", "disparity"))
     parser.add_argument("--fastdds-socket-buffer", type=int, default=8 * 1024 * 1024,
                         help="bytes of Fast DDS's UDP socket buffers; 0 keeps its default")
     args = parser.parse_args()
     for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.handeye_node,
-                   args.stereocal):
+                   args.disparity_node, args.stereocal):
         if not Path(binary).exists():
             raise SystemExit(f"{binary} not found; build it with `cargo build --bin rectify_node "
                              "--bin calibrate_node --bin pose_node --bin handeye_node "
-                             "--bin stereocal`")
+                             "--bin disparity_node --bin stereocal`")
 
     def run(checks):
         lease = DomainLease()
@@ -1358,6 +1568,8 @@ def main():
                 check_pose(checks, peer, rosout, args.pose_node, args.stereocal)
             if args.only in (None, "handeye"):
                 check_handeye(checks, peer, rosout, args.handeye_node, args.stereocal)
+            if args.only in (None, "disparity"):
+                check_disparity(checks, peer, rosout, args.disparity_node, args.stereocal)
         finally:
             peer.close()
             lease.release()

@@ -141,7 +141,7 @@ fn declare(builder: NodeBuilder) -> NodeBuilder {
         ),
         integer(
             "disp12_max_diff",
-            1,
+            0,
             0..=128,
             "largest difference between the left-to-right and right-to-left match, pixels",
         ),

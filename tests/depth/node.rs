@@ -167,11 +167,13 @@ fn replayed_pairs_get_their_disparity_over_dds_as_the_stage_computes_it() {
         exit.logs
     );
 
-    // The node's disparities are the stage's, byte for byte.
+    // The node's disparities are the stage's, byte for byte, with stereo_image_proc's
+    // defaults the node keeps.
     let params = SgmParams {
         disparity_range: 64,
         uniqueness_ratio: 15,
         speckle_range: 4.0,
+        disp12_max_diff: Some(0),
         ..SgmParams::default()
     };
     let mut stage = DepthStage::new(params);
