@@ -7,7 +7,7 @@
 //! streamed: a few images per side wait for their partner, so memory stays bounded
 //! whatever the bag's size.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::VecDeque;
 use std::path::PathBuf;
 use std::time::Instant;
 
@@ -173,16 +173,7 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
         },
     )
     .with_context(|| format!("creating {}", args.out.display()))?;
-    let mut copy_ids = BTreeMap::new();
-    for topic in reader.topics() {
-        let qos = OfferedQos::from_rosbag2_yaml(&topic.offered_qos_profiles)
-            .into_iter()
-            .next()
-            .unwrap_or_default();
-        let id =
-            writer.add_topic_with_qos(&topic.name, &topic.type_name, &topic.schema_text, &qos)?;
-        copy_ids.insert(topic.name.clone(), id);
-    }
+    let copy_ids = writer.add_topics_of(reader.topics())?;
     let disparity_id =
         writer.add_message_topic::<DisparityImage>(&disparity_topic, &OfferedQos::default())?;
     let points_id = writer.add_message_topic::<PointCloud2>(

@@ -240,15 +240,7 @@ pub fn pose_bag(args: &PoseArgs, progress: &ProgressBar) -> anyhow::Result<PoseR
         },
     )
     .with_context(|| format!("creating {}", args.out.display()))?;
-    let mut copy_ids = BTreeMap::new();
-    for t in reader.topics() {
-        let qos = OfferedQos::from_rosbag2_yaml(&t.offered_qos_profiles)
-            .into_iter()
-            .next()
-            .unwrap_or_default();
-        let id = writer.add_topic_with_qos(&t.name, &t.type_name, &t.schema_text, &qos)?;
-        copy_ids.insert(t.name.clone(), id);
-    }
+    let copy_ids = writer.add_topics_of(reader.topics())?;
     let pose_topic =
         writer.add_message_topic::<PoseStamped>(&pose_topic_name, &OfferedQos::default())?;
     let tf_topic = match (copy_ids.get("/tf"), reader.topic("/tf")) {

@@ -5,7 +5,7 @@
 //! memory stays bounded whatever the bag's size. An image is paired with the camera_info
 //! of the same stamp when one arrives close by, otherwise with the nearest recent one.
 
-use std::collections::{BTreeMap, VecDeque};
+use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -21,7 +21,7 @@ use super::image_topics::image_topics;
 use crate::convert::{ImageKind, base_topic};
 use crate::rectify::stage::{Rectified, Rectifier};
 use stereocal_rosbag::{
-    BagReader, BagWriter, ChunkCompression, OfferedQos, TopicFilter, TopicId, WriterOptions,
+    BagReader, BagWriter, ChunkCompression, TopicFilter, TopicId, WriterOptions,
 };
 
 /// Images per camera that may wait for a camera_info with their stamp.
@@ -291,19 +291,7 @@ pub fn rectify_bag(
     )
     .with_context(|| format!("creating {}", output.display()))?;
 
-    let mut copy_ids = BTreeMap::new();
-    for topic in reader.topics() {
-        let id = writer.add_topic_with_qos(
-            &topic.name,
-            &topic.type_name,
-            &topic.schema_text,
-            &OfferedQos::from_rosbag2_yaml(&topic.offered_qos_profiles)
-                .into_iter()
-                .next()
-                .unwrap_or_default(),
-        )?;
-        copy_ids.insert(topic.name.clone(), id);
-    }
+    let copy_ids = writer.add_topics_of(reader.topics())?;
     let (mut cameras, unrectified_topics) = plan_cameras(&reader, options, &mut writer)?;
     progress
         .set_length(reader.topics_message_count(cameras.iter().map(|c| c.image_topic.as_str())));

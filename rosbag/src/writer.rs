@@ -258,6 +258,26 @@ impl BagWriter {
         Ok(id)
     }
 
+    /// Adds every topic of `topics` (a bag's, as [`crate::BagReader::topics`] lists
+    /// them) with its type, schema and first offered QoS, to copy their messages over;
+    /// returns each topic's id by name.
+    pub fn add_topics_of(
+        &mut self,
+        topics: &[crate::TopicInfo],
+    ) -> Result<BTreeMap<String, TopicId>, BagError> {
+        let mut ids = BTreeMap::new();
+        for topic in topics {
+            let qos = OfferedQos::from_rosbag2_yaml(&topic.offered_qos_profiles)
+                .into_iter()
+                .next()
+                .unwrap_or_default();
+            let id =
+                self.add_topic_with_qos(&topic.name, &topic.type_name, &topic.schema_text, &qos)?;
+            ids.insert(topic.name.clone(), id);
+        }
+        Ok(ids)
+    }
+
     /// Adds a topic of message type `M` (its type name and `ros2msg` schema) recorded
     /// with `qos`.
     pub fn add_message_topic<M: RosMessage>(

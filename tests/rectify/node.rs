@@ -32,7 +32,9 @@ use crate::common;
 
 const WIDTH: u32 = 320;
 const HEIGHT: u32 = 240;
-const TIMEOUT: Duration = Duration::from_secs(20);
+/// Longest wait for discovery, a frame or a reply: a deadline, not a pause, long enough
+/// for a node started on a machine busy with other builds and tests.
+const TIMEOUT: Duration = Duration::from_secs(60);
 
 /// Starts `rectify_node` in namespace `/cam` on `domain`, with `extra` ROS arguments.
 fn start_node(domain: &DomainLease, extra: &[&str]) -> NodeProcess {

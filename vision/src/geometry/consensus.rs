@@ -128,6 +128,47 @@ pub(crate) struct Consensus<M> {
     pub squared_threshold: f64,
 }
 
+/// Rounds of refitting a consensus model on its inliers.
+const REFIT_ROUNDS: usize = 3;
+
+/// A consensus model refined on its inliers: `refit` fits a model to the inliers of
+/// a mask (`None` when it cannot), and the refit is kept while the inlier set grows
+/// (never when it would shrink), for at most [`REFIT_ROUNDS`]. Returns the model, its
+/// inlier mask and count, and the RMS error of its inliers (square root of the mean
+/// squared error, in the estimator's units).
+pub(crate) fn refit_on_inliers<E: Estimator>(
+    estimator: &E,
+    consensus: &Consensus<E::Model>,
+    mut refit: impl FnMut(&E::Model, &[bool]) -> Option<E::Model>,
+) -> (E::Model, Vec<bool>, usize, f64)
+where
+    E::Model: Clone,
+{
+    let threshold = consensus.squared_threshold;
+    let (mut mask, mut count) = inliers(estimator, &consensus.model, threshold);
+    let mut model = consensus.model.clone();
+    for _ in 0..REFIT_ROUNDS {
+        let Some(refitted) = refit(&model, &mask) else {
+            break;
+        };
+        let (new_mask, new_count) = inliers(estimator, &refitted, threshold);
+        if new_count < count {
+            break;
+        }
+        let grew = new_count > count;
+        (model, mask, count) = (refitted, new_mask, new_count);
+        if !grew {
+            break;
+        }
+    }
+    let squared_sum: f64 = (0..estimator.len())
+        .filter(|&i| mask[i])
+        .map(|i| estimator.squared_error(&model, i))
+        .sum();
+    let rms = (squared_sum / count.max(1) as f64).sqrt();
+    (model, mask, count, rms)
+}
+
 /// Which correspondences `model` explains within `squared_threshold`, and how many.
 pub(crate) fn inliers<E: Estimator>(
     estimator: &E,

@@ -24,8 +24,6 @@ use crate::camera::CameraModel;
 const SAMPLE_SIZE: usize = 5;
 /// Levenberg-Marquardt iterations of the refinement.
 const REFINE_ITERATIONS: usize = 20;
-/// Rounds of refinement and re-scoring while the inlier set grows.
-const REFINE_ROUNDS: usize = 3;
 /// Step of the central differences of the refinement's Jacobian, radians (and unit
 /// vector components).
 const DIFFERENCE_STEP: f64 = 1e-7;
@@ -126,35 +124,17 @@ pub fn find_essential(
         b: &normalized_b,
     };
     let consensus = consensus::search(&estimator, options, 1.0 / focal)?;
-    let threshold = consensus.squared_threshold;
-    let (mut mask, mut count) = consensus::inliers(&estimator, &consensus.model, threshold);
-    let mut e = consensus.model;
-    for _ in 0..REFINE_ROUNDS {
-        let (a, b) = select(&normalized_a, &normalized_b, &mask);
-        let Some(refined) = refine(&e, &a, &b) else {
-            break;
-        };
-        let (new_mask, new_count) = consensus::inliers(&estimator, &refined, threshold);
-        if new_count < count {
-            break;
-        }
-        let grew = new_count > count;
-        (e, mask, count) = (refined, new_mask, new_count);
-        if !grew {
-            break;
-        }
-    }
-    let squared_sum: f64 = (0..normalized_a.len())
-        .filter(|&i| mask[i])
-        .map(|i| estimator.squared_error(&e, i))
-        .sum();
+    let (e, mask, count, rms) = consensus::refit_on_inliers(&estimator, &consensus, |e, mask| {
+        let (a, b) = select(&normalized_a, &normalized_b, mask);
+        refine(e, &a, &b)
+    });
     let e = essential_of(&e)
         .ok_or_else(|| GeometryError::NoSolution("non-finite essential matrix".into()))?;
     Ok(EssentialEstimate {
         essential: e,
         inliers: mask,
         inlier_count: count,
-        rms_px: (squared_sum / count.max(1) as f64).sqrt() * focal,
+        rms_px: rms * focal,
         iterations: consensus.iterations,
     })
 }

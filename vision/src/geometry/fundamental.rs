@@ -22,8 +22,6 @@ const SAMPLE_SIZE: usize = 7;
 /// below which a family of matrices fits the points (too few distinct points, or a
 /// scene where the epipolar geometry is not determined, such as a plane).
 const MIN_SINGULAR_RATIO: f64 = 1e-10;
-/// Rounds of refitting on the inliers and re-scoring while the inlier set grows.
-const REFIT_ROUNDS: usize = 3;
 
 /// A fundamental matrix, and the correspondences it explains, from [`find_fundamental`].
 #[derive(Clone, Debug, PartialEq)]
@@ -129,35 +127,18 @@ pub fn find_fundamental(
         t_b,
     };
     let consensus = consensus::search(&estimator, options, 1.0)?;
-    let threshold = consensus.squared_threshold;
-    let (mut mask, mut count) = consensus::inliers(&estimator, &consensus.model, threshold);
-    let mut f = consensus.model;
-    for _ in 0..REFIT_ROUNDS {
-        let (a, b) = select(points_a, points_b, &mask);
-        let Ok(refit) = fundamental_8point(&a, &b) else {
-            break;
-        };
-        let (new_mask, new_count) = consensus::inliers(&estimator, &refit, threshold);
-        if new_count < count {
-            break;
-        }
-        let grew = new_count > count;
-        (f, mask, count) = (refit, new_mask, new_count);
-        if !grew {
-            break;
-        }
-    }
-    let squared_sum: f64 = (0..points_a.len())
-        .filter(|&i| mask[i])
-        .map(|i| estimator.squared_error(&f, i))
-        .sum();
+    let (f, mask, count, rms_px) =
+        consensus::refit_on_inliers(&estimator, &consensus, |_, mask| {
+            let (a, b) = select(points_a, points_b, mask);
+            fundamental_8point(&a, &b).ok()
+        });
     let f = finite(scaled(f))
         .ok_or_else(|| GeometryError::NoSolution("non-finite fundamental matrix".into()))?;
     Ok(FundamentalEstimate {
         fundamental: f,
         inliers: mask,
         inlier_count: count,
-        rms_px: (squared_sum / count.max(1) as f64).sqrt(),
+        rms_px,
         iterations: consensus.iterations,
     })
 }

@@ -18,8 +18,6 @@ const MIN_POINTS: usize = 4;
 const MIN_SINGULAR_RATIO: f64 = 1e-10;
 /// Levenberg-Marquardt iterations of the refinement.
 const REFINE_ITERATIONS: usize = 30;
-/// Rounds of refinement and re-scoring while the inlier set grows.
-const REFINE_ROUNDS: usize = 3;
 
 /// The homography `H` with `b ~ H a` from at least four correspondences
 /// (`image_b_from_image_a`), by the direct linear transform on Hartley-normalized points,
@@ -108,28 +106,12 @@ pub fn find_homography(
     check_pairs(points_a, points_b, MIN_POINTS)?;
     let estimator = TransferError { points_a, points_b };
     let consensus = consensus::search(&estimator, options, 1.0)?;
-    let threshold = consensus.squared_threshold;
-    let (mut mask, mut count) = consensus::inliers(&estimator, &consensus.model, threshold);
-    let mut h = consensus.model;
-    for _ in 0..REFINE_ROUNDS {
-        let (a, b) = select(points_a, points_b, &mask);
-        let start = homography_dlt(&a, &b).unwrap_or(h);
-        let refined = refine(&start, &a, &b);
-        let (new_mask, new_count) = consensus::inliers(&estimator, &refined, threshold);
-        if new_count < count {
-            break;
-        }
-        let grew = new_count > count;
-        (h, mask, count) = (refined, new_mask, new_count);
-        if !grew {
-            break;
-        }
-    }
-    let squared_sum: f64 = (0..points_a.len())
-        .filter(|&i| mask[i])
-        .map(|i| estimator.squared_error(&h, i))
-        .sum();
-    let rms_px = (squared_sum / count.max(1) as f64).sqrt();
+    let (h, mask, count, rms_px) =
+        consensus::refit_on_inliers(&estimator, &consensus, |h, mask| {
+            let (a, b) = select(points_a, points_b, mask);
+            let start = homography_dlt(&a, &b).unwrap_or(*h);
+            Some(refine(&start, &a, &b))
+        });
     let h = finite(h).ok_or_else(|| GeometryError::NoSolution("non-finite homography".into()))?;
     Ok(HomographyEstimate {
         image_b_from_image_a: h,
