@@ -98,7 +98,9 @@ from rclpy.qos import (
     DurabilityPolicy, QoSProfile, ReliabilityPolicy, qos_profile_parameter_events,
     qos_profile_rosout_default, qos_profile_sensor_data,
 )
-from sensor_msgs.msg import CameraInfo, CompressedImage, Image, RegionOfInterest
+from sensor_msgs.msg import (
+    CameraInfo, CompressedImage, Image, PointCloud2, PointField, RegionOfInterest,
+)
 from sensor_msgs.srv import SetCameraInfo
 from std_msgs.msg import Header, String
 from stereo_msgs.msg import DisparityImage
@@ -1531,6 +1533,88 @@ def disparity_checks(checks, peer, rosout, d, pairs, offline):
     describe_all_check(checks, label, d.params)
 
 
+# ---------------------------------------------------------------------------------------
+# point_cloud_node
+
+POINTS2 = "/stereo/points2"
+#: stereo_image_proc's four layouts: (use_color, avoid_point_cloud_padding) -> fields
+#: (name, offset) and bytes a point.
+CLOUD_LAYOUTS = {
+    (True, False): ([("x", 0), ("y", 4), ("z", 8), ("rgb", 16)], 32),
+    (False, False): ([("x", 0), ("y", 4), ("z", 8)], 16),
+    (True, True): ([("x", 0), ("y", 4), ("z", 8), ("rgb", 12)], 16),
+    (False, True): ([("x", 0), ("y", 4), ("z", 8)], 12),
+}
+
+
+def xyz_of(cloud):
+    """The x, y, z of every point of an organized PointCloud2 (float32 fields)."""
+    offsets = {f.name: f.offset for f in cloud.fields}
+    raw = np.frombuffer(bytes(cloud.data), dtype=np.uint8).reshape(-1, cloud.point_step)
+    return np.stack([raw[:, offsets[n]:offsets[n] + 4].copy().view("<f4")[:, 0]
+                     for n in ("x", "y", "z")], axis=1)
+
+
+def check_point_cloud(checks, peer, rosout, disparity_binary, cloud_binary, stereocal):
+    label = "point_cloud_node"
+    setup = f"setup: stereocal synth --scene depth ({DEPTH_FRAMES} pairs), stereocal depth"
+    with tempfile.TemporaryDirectory() as tmp:
+        with checks.check(label, setup):
+            pairs, _ = depth_session(stereocal, tmp)
+            offline = {stamp_of(m): m for _, m in bag_messages(Path(tmp) / "depth", [POINTS2])}
+            require(len(offline) == DEPTH_FRAMES, f"{len(offline)} offline clouds")
+        if not checks.passed(label, setup):
+            return checks.skip(label, "the other checks", "no synthesized pairs")
+        d = Disparity(peer, disparity_binary)
+        try:
+            for index, ((color, avoid), (fields, step)) in enumerate(CLOUD_LAYOUTS.items()):
+                what = (f"points2 (use_color {str(color).lower()}, avoid_point_cloud_padding "
+                        f"{str(avoid).lower()}): reliable and best-effort, fields "
+                        f"{[name for name, _ in fields]}, {step} bytes a point, xyz equal to "
+                        f"stereocal depth's")
+                command = [cloud_binary, "--ros-args", "-r", "__ns:=/stereo",
+                           "-r", "left/image_rect_color:=left/image_rect",
+                           "-p", f"use_color:={str(color).lower()}",
+                           "-p", f"avoid_point_cloud_padding:={str(avoid).lower()}"]
+                process = NodeProcess(command, peer.domain)
+                peer.watch(process)
+                reliable = peer.subscribe(PointCloud2, POINTS2, RELIABLE)
+                sensor = peer.subscribe(PointCloud2, POINTS2, qos_profile_sensor_data)
+                try:
+                    with checks.check(label, what) as note:
+                        pair = pairs[0]
+                        stamp = stamp_of(pair[0])
+
+                        def both():
+                            got = [next((m for m in inbox.messages if stamp_of(m) == stamp), None)
+                                   for inbox in (reliable, sensor)]
+                            return got if all(got) else None
+                        got = d.send_until(pair, both, "points2 on both subscribers")
+                        for msg in got:
+                            require([(f.name, f.offset, f.datatype, f.count) for f in msg.fields]
+                                    == [(n, o, PointField.FLOAT32, 1) for n, o in fields],
+                                    f"fields {msg.fields}")
+                            require(msg.point_step == step and msg.row_step == step * msg.width
+                                    and (msg.width, msg.height) == (320, 240)
+                                    and not msg.is_dense,
+                                    f"step {msg.point_step}, row_step {msg.row_step}, "
+                                    f"{msg.width}x{msg.height}, is_dense {msg.is_dense}")
+                            ours, want = xyz_of(msg), xyz_of(offline[stamp])
+                            same = np.array_equal(np.isnan(ours), np.isnan(want)) and np.array_equal(
+                                ours[~np.isnan(ours)], want[~np.isnan(want)])
+                            require(same, "xyz differ from stereocal depth's points2")
+                        valid = ~np.isnan(xyz_of(got[0])[:, 2])
+                        note(f"{valid.mean():.1%} of the points valid")
+                finally:
+                    peer.node.destroy_subscription(reliable.subscription)
+                    peer.node.destroy_subscription(sensor.subscription)
+                    stop_and_check(checks, peer, process, f"{label} (layout {index + 1})",
+                                   "point_cloud_node", "/stereo")
+        finally:
+            stop_and_check(checks, peer, d.process, f"{d.label} (for {label})", d.name,
+                           d.namespace)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rectify-node", default=str(ROOT / "target" / "debug" / "rectify_node"))
@@ -1541,17 +1625,20 @@ def main():
                         default=str(ROOT / "target" / "debug" / "handeye_node"))
     parser.add_argument("--disparity-node",
                         default=str(ROOT / "target" / "debug" / "disparity_node"))
+    parser.add_argument("--point-cloud-node",
+                        default=str(ROOT / "target" / "debug" / "point_cloud_node"))
     parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
-    parser.add_argument("--only", choices=("rectify", "calibrate", "pose", "handeye", "disparity"))
+    parser.add_argument("--only", choices=("rectify", "calibrate", "pose", "handeye", "disparity",
+                                           "point_cloud"))
     parser.add_argument("--fastdds-socket-buffer", type=int, default=8 * 1024 * 1024,
                         help="bytes of Fast DDS's UDP socket buffers; 0 keeps its default")
     args = parser.parse_args()
     for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.handeye_node,
-                   args.disparity_node, args.stereocal):
+                   args.disparity_node, args.point_cloud_node, args.stereocal):
         if not Path(binary).exists():
             raise SystemExit(f"{binary} not found; build it with `cargo build --bin rectify_node "
                              "--bin calibrate_node --bin pose_node --bin handeye_node "
-                             "--bin disparity_node --bin stereocal`")
+                             "--bin disparity_node --bin point_cloud_node --bin stereocal`")
 
     def run(checks):
         lease = DomainLease()
@@ -1570,6 +1657,9 @@ def main():
                 check_handeye(checks, peer, rosout, args.handeye_node, args.stereocal)
             if args.only in (None, "disparity"):
                 check_disparity(checks, peer, rosout, args.disparity_node, args.stereocal)
+            if args.only in (None, "point_cloud"):
+                check_point_cloud(checks, peer, rosout, args.disparity_node,
+                                  args.point_cloud_node, args.stereocal)
         finally:
             peer.close()
             lease.release()

@@ -31,12 +31,15 @@ use stereocal_runtime::shutdown::Shutdown;
 type NodeMain = fn(Vec<String>) -> anyhow::Result<()>;
 
 /// The nodes a composition can hold, by the name the file gives them.
-const NODES: [(&str, NodeMain); 5] = [
+const NODES: [(&str, NodeMain); 6] = [
     ("rectify", |args| crate::rectify::node::run(args)),
     ("calibrate", |args| crate::calibrate::node::run(args)),
     ("pose", |args| crate::pose::node::run(args)),
     ("handeye", |args| crate::handeye::node::run(args)),
     ("disparity", |args| crate::depth::node::run(args)),
+    ("point_cloud", |args| {
+        crate::depth::point_cloud_node::run(args)
+    }),
 ];
 
 /// The logger name of the composition itself.
@@ -49,7 +52,7 @@ const WATCH_PERIOD: Duration = Duration::from_millis(50);
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ComposedNode {
-    /// Which node (`rectify`, `calibrate`, `pose`).
+    /// Which node (`rectify`, `calibrate`, `pose`, `handeye`, `disparity`, `point_cloud`).
     pub node: String,
     /// Its ROS arguments (remaps, parameters), as after `--ros-args`.
     #[serde(default)]

@@ -321,7 +321,7 @@ impl Output<'_> {
                     let milliseconds = start.elapsed().as_secs_f64() * 1e3;
                     let msg = disparity_msg(&frame, left_image.header.clone());
                     writer.write_message(self.disparity_id, log_time_ns, &msg)?;
-                    let points = points_msg(&frame, left_image.header.clone());
+                    let points = points_msg(&frame, left_image.header.clone())?;
                     writer.write_message(self.points_id, log_time_ns, &points)?;
                     self.summary.pairs += 1;
                     if self.json {

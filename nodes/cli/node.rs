@@ -43,6 +43,14 @@ pub enum NodeCommand {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         args: Vec<String>,
     },
+    /// The point cloud node: `left/image_rect_color`, `disparity` and the camera_infos
+    /// in, `points2` out, as stereo_image_proc's PointCloudNode.
+    #[command(name = "point_cloud")]
+    PointCloud {
+        /// ROS arguments, as for the `point_cloud_node` executable.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
     /// Several nodes in this process, as a composition file lists them, like a
     /// component container.
     Compose {
@@ -62,6 +70,7 @@ pub fn run(command: NodeCommand) -> anyhow::Result<()> {
         NodeCommand::Pose { args } => crate::pose::node::run(args),
         NodeCommand::Handeye { args } => crate::handeye::node::run(args),
         NodeCommand::Disparity { args } => crate::depth::node::run(args),
+        NodeCommand::PointCloud { args } => crate::depth::point_cloud_node::run(args),
         NodeCommand::Compose { file, args } => crate::composition::run(&file, &args),
     }
 }

@@ -4,9 +4,7 @@
 //! the stage stays usable for the next pair.
 
 use nalgebra::Matrix3x4;
-use stereocal_msgs::sensor_msgs::{
-    CameraInfo, Image as ImageMsg, PointCloud2, PointField, RegionOfInterest,
-};
+use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg, PointCloud2, RegionOfInterest};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_vision::image::{Image, Samples};
@@ -15,6 +13,7 @@ use stereocal_vision::stereo::{
 };
 use thiserror::Error;
 
+use super::cloud::{CloudError, CloudLayout, cloud};
 use crate::convert::{Encoding, ImageMsgError, image_from_msg};
 
 /// Smallest disparity increment a [`DisparityImage`] from this stage declares: the
@@ -239,27 +238,17 @@ fn disparity_image(values: &[f32], width: usize, height: usize, header: Header) 
 /// The organized [`PointCloud2`] of `frame` in the left camera's rectified optical
 /// frame: one point per pixel, row after row, fields `x`, `y`, `z` (float32, metres,
 /// 12 bytes a point, no padding), NaN where a pixel has no disparity.
-pub fn points_msg(frame: &DisparityFrame, header: Header) -> PointCloud2 {
-    let points = frame.reprojection.points(&frame.map);
-    let field = |name: &str, offset: u32| PointField {
-        name: name.to_owned(),
-        offset,
-        datatype: PointField::FLOAT32,
-        count: 1,
+pub fn points_msg(frame: &DisparityFrame, header: Header) -> Result<PointCloud2, CloudError> {
+    let layout = CloudLayout {
+        color: false,
+        avoid_padding: true,
     };
-    let point_step = 12;
-    PointCloud2 {
+    cloud(
+        &frame.map.data,
+        frame.map.width,
+        &frame.reprojection,
+        None,
+        layout,
         header,
-        height: frame.map.height as u32,
-        width: frame.map.width as u32,
-        fields: vec![field("x", 0), field("y", 4), field("z", 8)],
-        is_bigendian: false,
-        point_step,
-        row_step: point_step * frame.map.width as u32,
-        data: points
-            .iter()
-            .flat_map(|p| p.iter().flat_map(|v| v.to_le_bytes()))
-            .collect(),
-        is_dense: false,
-    }
+    )
 }
