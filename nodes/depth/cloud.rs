@@ -2,6 +2,7 @@
 //! layouts of stereo_image_proc's PointCloudNode: `x`, `y`, `z` float32, with or without
 //! a packed `rgb` float32, padded to 16 or 32 bytes a point or packed tight.
 
+use rayon::prelude::*;
 use stereocal_msgs::sensor_msgs::{PointCloud2, PointField};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_vision::image::{Image, Samples};
@@ -103,19 +104,39 @@ pub fn cloud(
     let step = layout.point_step() as usize;
     let mut data = vec![0u8; step * disparities.len()];
     let rgb_offset = if layout.avoid_padding { 12 } else { 16 };
-    for (i, (point, &d)) in data.chunks_exact_mut(step).zip(disparities).enumerate() {
-        let (x, y) = ((i % width) as f64, (i / width) as f64);
-        let xyz = reprojection
-            .point(x, y, d)
-            .map_or([f32::NAN; 3], |p| [p.x as f32, p.y as f32, p.z as f32]);
-        for (k, v) in xyz.iter().enumerate() {
-            point[4 * k..4 * k + 4].copy_from_slice(&v.to_le_bytes());
-        }
-        if layout.color {
-            let rgb = color.map_or(0, |(image, order)| packed_rgb(image, order, i));
-            point[rgb_offset..rgb_offset + 4].copy_from_slice(&rgb.to_le_bytes());
-        }
-    }
+    // The reprojection in single precision, per row and per pixel: z = f B / (d - (cx_l -
+    // cx_r)), x = (u - cx) z / fx, y = (v - cy) z / fy.
+    let r = reprojection;
+    let focal_baseline = (r.fx * r.baseline) as f32;
+    let offset = (r.cx_left - r.cx_right) as f32;
+    let (cx, inverse_fx) = (r.cx_left as f32, (1.0 / r.fx) as f32);
+    let (cy, inverse_fy) = (r.cy as f32, (1.0 / r.fy) as f32);
+    data.par_chunks_mut(step * width.max(1))
+        .zip(disparities.par_chunks(width.max(1)))
+        .enumerate()
+        .for_each(|(v, (row, row_disparities))| {
+            let ray_y = (v as f32 - cy) * inverse_fy;
+            for (u, (point, &d)) in row.chunks_exact_mut(step).zip(row_disparities).enumerate() {
+                let shifted = d - offset;
+                let xyz = if shifted > 0.0 {
+                    let z = focal_baseline / shifted;
+                    [(u as f32 - cx) * inverse_fx * z, ray_y * z, z]
+                } else {
+                    // No disparity (NaN), or a point at or beyond infinity.
+                    [f32::NAN; 3]
+                };
+                point[0..4].copy_from_slice(&xyz[0].to_le_bytes());
+                point[4..8].copy_from_slice(&xyz[1].to_le_bytes());
+                point[8..12].copy_from_slice(&xyz[2].to_le_bytes());
+            }
+            if let (true, Some((image, order))) = (layout.color, color) {
+                let first = v * width;
+                for (u, point) in row.chunks_exact_mut(step).enumerate() {
+                    let rgb = packed_rgb(image, order, first + u);
+                    point[rgb_offset..rgb_offset + 4].copy_from_slice(&rgb.to_le_bytes());
+                }
+            }
+        });
     Ok(PointCloud2 {
         header,
         height: height as u32,
@@ -130,6 +151,7 @@ pub fn cloud(
 }
 
 /// `0x00RRGGBB` of pixel `i` (16-bit grey scaled to 8 bits).
+#[inline]
 fn packed_rgb(image: &Image, order: ChannelOrder, i: usize) -> u32 {
     let channels = image.channels;
     let (r, g, b) = match &image.samples {
