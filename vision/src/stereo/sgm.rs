@@ -1,5 +1,7 @@
 //! Semi-global matching of a rectified pair, with every buffer kept between frames.
 
+use std::ops::Range;
+
 use rayon::prelude::*;
 
 use super::aggregate::{
@@ -21,12 +23,16 @@ use crate::image::{Image, Samples};
 /// (gain, offset, any monotonic response): it is the cost that ranks best on real pairs
 /// in Hirschmüller and Scharstein's evaluation of matching costs.
 ///
-/// The image is swept down (and, with four or eight paths, back up) one row at a time.
-/// While one thread aggregates a row along its horizontal path, the others aggregate
-/// the row before along the vertical paths and choose the disparities of the row before
-/// that, so the aggregated costs of the whole image are stored at most once (two
-/// sweeps) or not at all (five paths). The result does not depend on the number of
-/// threads.
+/// With four or eight paths, a downward and an upward sweep run side by side, in two
+/// halves: first the downward sweep over the top half of the rows and the upward one
+/// over the bottom half, each storing its sums; then each sweep goes on over the other
+/// half, adds the other's stored sums and chooses the disparities as it goes. So the
+/// aggregated costs of the whole image are stored once, and the two sweeps keep two
+/// threads busy. With five paths one downward sweep chooses as it goes. Within a
+/// sweep, the image is swept one row at a time as a pipeline: while one thread
+/// aggregates a row along its horizontal path, others aggregate the row before along
+/// the vertical paths and choose the disparities of the row before that. The result
+/// does not depend on the number of threads.
 ///
 /// The matcher keeps its buffers between calls: matching a stream of pairs of one size
 /// allocates only for the first.
@@ -35,18 +41,12 @@ pub struct SemiGlobalMatcher {
     census_left: Vec<u64>,
     census_right: Vec<u64>,
     costs: Vec<u8>,
-    /// Sums of the downward sweep's paths, per pixel (two-sweep modes only).
+    /// Sums of each sweep's paths over the first half of its rows (two-sweep modes).
     sums: AlignedBuffer,
-    /// Horizontal paths of the row being swept and of the row before.
-    horizontal: [AlignedBuffer; 2],
-    /// Complete sums of the two rows waiting for their disparities to be chosen.
-    finished: [AlignedBuffer; 2],
-    sweep: SweepState,
-    horizontal_scratch: AlignedBuffer,
     /// A row of zero sums, the base of the first paths.
     zeros: AlignedBuffer,
-    right_matches: Vec<i32>,
-    right_costs: Vec<u16>,
+    /// The downward sweep and the upward one.
+    sweepers: [Sweeper; 2],
     speckles: SpeckleFilter,
     refiner: Refiner,
 }
@@ -129,12 +129,170 @@ impl SweepState {
     }
 }
 
+/// The buffers of one sweep over the rows.
+#[derive(Default)]
+struct Sweeper {
+    /// Horizontal paths of the row being swept and of the row before.
+    horizontal: [AlignedBuffer; 2],
+    /// Complete sums of the two rows waiting for their disparities to be chosen.
+    finished: [AlignedBuffer; 2],
+    sweep: SweepState,
+    horizontal_scratch: AlignedBuffer,
+    right_matches: Vec<i32>,
+    right_costs: Vec<u16>,
+}
+
 /// What a sweep does at each row.
+#[derive(Clone, Copy)]
 struct SweepPlan {
     horizontal: Horizontal,
     diagonals: bool,
-    /// Whether the sums are complete at the end of this sweep.
-    last: bool,
+    upward: bool,
+}
+
+/// What is shared by the sweeps of a pair.
+#[derive(Clone, Copy)]
+struct Frame<'a> {
+    params: &'a SgmParams,
+    costs: &'a [u8],
+    zeros: &'a [u16],
+    width: usize,
+}
+
+/// Where a stretch of a sweep puts its sums: `rows` are the rows swept, and the
+/// buffers below hold exactly those rows, first row first.
+enum Output<'a> {
+    /// Stores the sums of the rows.
+    Store(&'a mut [u16]),
+    /// Adds `other`, the other sweep's sums of the rows, and chooses the rows'
+    /// disparities into `disparities`.
+    Choose {
+        other: Option<&'a [u16]>,
+        disparities: &'a mut [f32],
+    },
+}
+
+impl Sweeper {
+    fn reset(&mut self, width: usize, range: usize) {
+        for buffer in self.horizontal.iter_mut().chain(self.finished.iter_mut()) {
+            buffer.resize(width * range);
+        }
+        self.horizontal_scratch.resize(2 * slot_len(range));
+        self.right_matches.resize(width, 0);
+        self.right_costs.resize(width, 0);
+        self.sweep.reset(width, range);
+    }
+
+    /// Sweeps `rows` (down, or up when `plan.upward`), going on from the row before
+    /// them (from the image's border after [`Self::reset`]), as a pipeline: at step
+    /// `i` the horizontal paths of the `i`-th row, the vertical paths of the row
+    /// before and, when choosing, the disparities of the row before that, each on its
+    /// own thread.
+    fn run(&mut self, frame: Frame<'_>, plan: SweepPlan, rows: Range<usize>, output: Output<'_>) {
+        let params = frame.params;
+        let range = params.disparity_range;
+        let width = frame.width;
+        let penalties = Penalties {
+            p1: params.p1,
+            p2: params.p2,
+        };
+        let row_len = width * range;
+        let count = rows.len();
+        // The `step`-th row swept, and its index in `rows`.
+        let row_of = |step: usize| if plan.upward { count - 1 - step } else { step };
+        let (mut stored, other, mut disparities) = match output {
+            Output::Store(sums) => (Some(sums), None, None),
+            Output::Choose { other, disparities } => (None, other, Some(disparities)),
+        };
+        let steps = if disparities.is_some() {
+            count + 2
+        } else {
+            count + 1
+        };
+        for step in 0..steps {
+            let horizontal_i = (step < count).then(|| row_of(step));
+            let vertical_i = (1..=count).contains(&step).then(|| row_of(step - 1));
+            let choose_i = (step >= 2).then(|| row_of(step - 2));
+
+            let [h0, h1] = &mut self.horizontal;
+            let (horizontal, horizontal_before) = if step % 2 == 0 {
+                (h0, &*h1)
+            } else {
+                (h1, &*h0)
+            };
+            let (horizontal, horizontal_before) =
+                (horizontal.as_mut_slice(), horizontal_before.as_slice());
+            let [f0, f1] = &mut self.finished;
+            let (finishing, finished) = if step % 2 == 0 {
+                (f1, &*f0)
+            } else {
+                (f0, &*f1)
+            };
+            let (finishing, finished) = (finishing.as_mut_slice(), finished.as_slice());
+            let horizontal_base = match (other, horizontal_i) {
+                (Some(other), Some(i)) => &other[i * row_len..(i + 1) * row_len],
+                _ => frame.zeros,
+            };
+            let vertical_out: &mut [u16] = match (&mut stored, vertical_i) {
+                (Some(sums), Some(i)) => &mut sums[i * row_len..(i + 1) * row_len],
+                _ => finishing,
+            };
+            let row_costs = |i: usize| {
+                let y = rows.start + i;
+                &frame.costs[y * row_len..(y + 1) * row_len]
+            };
+            let sweep = &mut self.sweep;
+            let scratch = self.horizontal_scratch.as_mut_slice();
+            let (right_matches, right_costs) = (&mut self.right_matches, &mut self.right_costs);
+            let choose_row_of = choose_i.zip(disparities.as_deref_mut());
+
+            let aggregate_horizontal = || {
+                if let Some(i) = horizontal_i {
+                    horizontal_row(
+                        row_costs(i),
+                        range,
+                        penalties,
+                        plan.horizontal,
+                        horizontal_base,
+                        horizontal,
+                        scratch,
+                    );
+                }
+            };
+            let aggregate_vertical = || {
+                if let Some(i) = vertical_i {
+                    sweep.row(
+                        row_costs(i),
+                        horizontal_before,
+                        vertical_out,
+                        range,
+                        penalties,
+                        plan.diagonals,
+                    );
+                }
+            };
+            let choose = || {
+                if let Some((i, disparities)) = choose_row_of {
+                    let row = &mut disparities[i * width..(i + 1) * width];
+                    choose_row(
+                        finished,
+                        range,
+                        params.min_disparity,
+                        params.uniqueness_ratio,
+                        row,
+                        right_matches,
+                        right_costs,
+                    );
+                    if let Some(max_diff) = params.disp12_max_diff {
+                        check_left_right(row, right_matches, max_diff);
+                    }
+                }
+            };
+            rayon::join(aggregate_horizontal, || {
+                rayon::join(aggregate_vertical, choose)
+            });
+        }
+    }
 }
 
 impl SemiGlobalMatcher {
@@ -146,13 +304,8 @@ impl SemiGlobalMatcher {
             census_right: Vec::new(),
             costs: Vec::new(),
             sums: AlignedBuffer::default(),
-            horizontal: Default::default(),
-            finished: Default::default(),
-            sweep: SweepState::default(),
-            horizontal_scratch: AlignedBuffer::default(),
             zeros: AlignedBuffer::default(),
-            right_matches: Vec::new(),
-            right_costs: Vec::new(),
+            sweepers: Default::default(),
             speckles: SpeckleFilter::default(),
             refiner: Refiner::default(),
         }
@@ -219,43 +372,71 @@ impl SemiGlobalMatcher {
             .for_each(|((costs, l), r)| cost_row(l, r, min_disparity, range, costs));
 
         let row_len = width * range;
-        for buffer in self.horizontal.iter_mut().chain(self.finished.iter_mut()) {
-            buffer.resize(row_len);
-        }
-        self.horizontal_scratch.resize(2 * slot_len(range));
         self.zeros.resize(row_len);
         self.zeros.as_mut_slice().fill(0);
-        self.right_matches.resize(width, 0);
-        self.right_costs.resize(width, 0);
+        for sweeper in &mut self.sweepers {
+            sweeper.reset(width, range);
+        }
         out.reset(width, height, min_disparity, range);
 
-        let plans: &[SweepPlan] = match self.params.paths {
-            Paths::Five => &[SweepPlan {
-                horizontal: Horizontal::Both,
-                diagonals: true,
-                last: true,
-            }],
+        let frame = Frame {
+            params: &self.params,
+            costs: &self.costs,
+            zeros: self.zeros.as_slice(),
+            width,
+        };
+        let [down, up] = &mut self.sweepers;
+        match self.params.paths {
+            Paths::Five => {
+                let plan = SweepPlan {
+                    horizontal: Horizontal::Both,
+                    diagonals: true,
+                    upward: false,
+                };
+                let output = Output::Choose {
+                    other: None,
+                    disparities: &mut out.data,
+                };
+                down.run(frame, plan, 0..height, output);
+            }
             Paths::Four | Paths::Eight => {
                 let diagonals = self.params.paths == Paths::Eight;
-                &[
-                    SweepPlan {
-                        horizontal: Horizontal::LeftToRight,
-                        diagonals,
-                        last: false,
+                let down_plan = SweepPlan {
+                    horizontal: Horizontal::LeftToRight,
+                    diagonals,
+                    upward: false,
+                };
+                let up_plan = SweepPlan {
+                    horizontal: Horizontal::RightToLeft,
+                    diagonals,
+                    upward: true,
+                };
+                let middle = height / 2;
+                self.sums.resize(pixels * range);
+                let (top, bottom) = self.sums.as_mut_slice().split_at_mut(middle * row_len);
+                rayon::join(
+                    || down.run(frame, down_plan, 0..middle, Output::Store(top)),
+                    || up.run(frame, up_plan, middle..height, Output::Store(bottom)),
+                );
+                let (top_out, bottom_out) = out.data.split_at_mut(middle * width);
+                let (top, bottom) = (&*top, &*bottom);
+                rayon::join(
+                    || {
+                        let output = Output::Choose {
+                            other: Some(bottom),
+                            disparities: bottom_out,
+                        };
+                        down.run(frame, down_plan, middle..height, output);
                     },
-                    SweepPlan {
-                        horizontal: Horizontal::RightToLeft,
-                        diagonals,
-                        last: true,
+                    || {
+                        let output = Output::Choose {
+                            other: Some(top),
+                            disparities: top_out,
+                        };
+                        up.run(frame, up_plan, 0..middle, output);
                     },
-                ]
+                );
             }
-        };
-        if plans.len() > 1 {
-            self.sums.resize(pixels * range);
-        }
-        for (k, plan) in plans.iter().enumerate() {
-            self.sweep_rows(plan, k == 1, width, height, &mut out.data);
         }
         self.refiner.refine(
             &mut out.data,
@@ -271,116 +452,5 @@ impl SemiGlobalMatcher {
             self.params.speckle_range,
         );
         Ok(())
-    }
-
-    /// One sweep over the rows (down, or up when `upward`), as a pipeline: at step `i`
-    /// the horizontal paths of row `i`, the vertical paths of row `i - 1` and, in the
-    /// last sweep, the disparities of row `i - 2`, each on its own thread.
-    fn sweep_rows(
-        &mut self,
-        plan: &SweepPlan,
-        upward: bool,
-        width: usize,
-        height: usize,
-        disparities: &mut [f32],
-    ) {
-        let params = &self.params;
-        let range = params.disparity_range;
-        let penalties = Penalties {
-            p1: params.p1,
-            p2: params.p2,
-        };
-        let row_len = width * range;
-        let row_of = |step: usize| if upward { height - 1 - step } else { step };
-        self.sweep.reset(width, range);
-        for step in 0..height + 2 {
-            let horizontal_y = (step < height).then(|| row_of(step));
-            let vertical_y = (1..=height).contains(&step).then(|| row_of(step - 1));
-            let choose_y = (plan.last && step >= 2).then(|| row_of(step - 2));
-
-            let [h0, h1] = &mut self.horizontal;
-            let (horizontal, horizontal_before) = if step % 2 == 0 {
-                (h0, &*h1)
-            } else {
-                (h1, &*h0)
-            };
-            let (horizontal, horizontal_before) =
-                (horizontal.as_mut_slice(), horizontal_before.as_slice());
-            let [f0, f1] = &mut self.finished;
-            let (finishing, finished) = if step % 2 == 0 {
-                (f1, &*f0)
-            } else {
-                (f0, &*f1)
-            };
-            let (finishing, finished) = (finishing.as_mut_slice(), finished.as_slice());
-            // The upward sweep's horizontal paths start from the downward sums; a
-            // downward sweep that is not the last writes them.
-            let (horizontal_base, vertical_out): (Option<&[u16]>, &mut [u16]) = if upward {
-                let base =
-                    horizontal_y.map(|y| &self.sums.as_slice()[y * row_len..(y + 1) * row_len]);
-                (base, finishing)
-            } else if plan.last {
-                (None, finishing)
-            } else {
-                let y = vertical_y.unwrap_or(0);
-                (
-                    None,
-                    &mut self.sums.as_mut_slice()[y * row_len..(y + 1) * row_len],
-                )
-            };
-            let zeros = self.zeros.as_slice();
-            let costs = &self.costs;
-            let row_costs = |y: usize| &costs[y * row_len..(y + 1) * row_len];
-            let sweep = &mut self.sweep;
-            let scratch = self.horizontal_scratch.as_mut_slice();
-            let (right_matches, right_costs) = (&mut self.right_matches, &mut self.right_costs);
-
-            let aggregate_horizontal = || {
-                if let Some(y) = horizontal_y {
-                    let base = horizontal_base.unwrap_or(zeros);
-                    horizontal_row(
-                        row_costs(y),
-                        range,
-                        penalties,
-                        plan.horizontal,
-                        base,
-                        horizontal,
-                        scratch,
-                    );
-                }
-            };
-            let aggregate_vertical = || {
-                if let Some(y) = vertical_y {
-                    sweep.row(
-                        row_costs(y),
-                        horizontal_before,
-                        vertical_out,
-                        range,
-                        penalties,
-                        plan.diagonals,
-                    );
-                }
-            };
-            let choose = || {
-                if let Some(y) = choose_y {
-                    let row = &mut disparities[y * width..(y + 1) * width];
-                    choose_row(
-                        finished,
-                        range,
-                        params.min_disparity,
-                        params.uniqueness_ratio,
-                        row,
-                        right_matches,
-                        right_costs,
-                    );
-                    if let Some(max_diff) = params.disp12_max_diff {
-                        check_left_right(row, right_matches, max_diff);
-                    }
-                }
-            };
-            rayon::join(aggregate_horizontal, || {
-                rayon::join(aggregate_vertical, choose)
-            });
-        }
     }
 }
