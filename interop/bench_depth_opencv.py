@@ -30,7 +30,8 @@ ratio OpenCV time / stereocal time is printed (above 1, stereocal is faster); wi
 The walls (`stereocal synth --scene depth-walls`, 640x480, 0.3 to 3 m, 192
 disparities): per distance, the 95th percentile of the relative depth error |Z - Z_true|
 / Z_true over the wall (invalid pixels counted as errors), beside the theoretical
-Z^2 * dd / (f * B) for the 95th percentile of stereocal's disparity error dd.
+relative error dZ / Z = Z * dd / (f * B) (from dZ = Z^2 * dd / (f * B)) for the 95th
+percentile of stereocal's disparity error dd.
 
 Usage: .venv/bin/python interop/bench_depth_opencv.py
        [--stereocal target/release/stereocal]

@@ -164,6 +164,12 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
     let (left_topic, right_topic) = pair_topics(&reader, args)?;
     let output_ns = parent(parent(&left_topic)).to_owned();
     let disparity_topic = format!("{output_ns}/disparity");
+    let points_topic = format!("{output_ns}/points2");
+    for topic in [&disparity_topic, &points_topic] {
+        if reader.topic(topic).is_some() {
+            bail!("the input bag already has {topic}: its messages would mix with the new ones");
+        }
+    }
 
     let mut writer = BagWriter::create_with(
         &args.out,
@@ -312,7 +318,10 @@ impl Output<'_> {
             let (Some(left_info), Some(right_info)) =
                 (left.info_for(&stamp), right.info_for(&stamp))
             else {
-                self.skip(&stamp, "no camera_info on both sides".into());
+                self.skip(
+                    &stamp,
+                    "no camera_info of this stamp or before it on both sides".into(),
+                );
                 continue;
             };
             let start = Instant::now();

@@ -20,6 +20,7 @@ use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_msgs::std_msgs::Header;
+use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_rosbag::{BagWriter, OfferedQos, WriterOptions};
 use stereocal_vision::camera::{CameraModel, Distortion, Intrinsics};
 use stereocal_vision::synth::depth::{DepthRig, DepthScene, DisparityTruth, PairPhotometry};
@@ -253,4 +254,106 @@ fn write_visible(path: &Path, truth: &DisparityTruth) -> anyhow::Result<()> {
         )
         .with_context(|| format!("cannot encode {}", path.display()))?;
     atomic_file::write(path, &bytes).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The truth of one frame of a depth scene, read back from the files [`run`] writes.
+pub struct FrameTruth {
+    /// Width, pixels.
+    pub width: usize,
+    /// Disparity per pixel, rows top to bottom.
+    pub disparity: Vec<f32>,
+    /// Whether the right camera sees each pixel's point.
+    pub visible: Vec<bool>,
+}
+
+/// Errors of a disparity map against a [`FrameTruth`], over the visible pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DisparityScores {
+    /// Fraction off by more than 1 px, invalid pixels counted.
+    pub bad1: f64,
+    /// Fraction off by more than 2 px, invalid pixels counted.
+    pub bad2: f64,
+    /// Mean absolute error of the valid pixels, pixels.
+    pub epe: f64,
+    /// Fraction of visible pixels with a disparity.
+    pub density: f64,
+}
+
+/// The truth of frame `index` of the depth scene in `dir`.
+pub fn read_truth(dir: &Path, index: usize) -> anyhow::Result<FrameTruth> {
+    let pfm = dir.join(format!("truth/frame_{index:03}_disparity.pfm"));
+    let bytes = std::fs::read(&pfm).with_context(|| format!("reading {}", pfm.display()))?;
+    let mut parts = bytes.splitn(4, |&b| b == b'\n');
+    let (magic, size, scale, data) = (parts.next(), parts.next(), parts.next(), parts.next());
+    let size = size.and_then(|s| std::str::from_utf8(s).ok()).unwrap_or("");
+    let (width, height) = size
+        .split_once(' ')
+        .and_then(|(w, h)| Some((w.parse::<usize>().ok()?, h.parse::<usize>().ok()?)))
+        .with_context(|| format!("{}: no size line", pfm.display()))?;
+    let data = data.unwrap_or_default();
+    if magic != Some(b"Pf".as_slice())
+        || scale != Some(b"-1.0".as_slice())
+        || data.len() != width * height * 4
+    {
+        bail!(
+            "{} is not a little-endian grey PFM of {width}x{height}",
+            pfm.display()
+        );
+    }
+    let mut disparity = vec![0.0; width * height];
+    for (row, chunk) in data.chunks_exact(width * 4).enumerate() {
+        for (x, v) in chunk.chunks_exact(4).enumerate() {
+            disparity[(height - 1 - row) * width + x] =
+                f32::from_le_bytes([v[0], v[1], v[2], v[3]]);
+        }
+    }
+    let png = dir.join(format!("truth/frame_{index:03}_visible.png"));
+    let mask = image::open(&png)
+        .with_context(|| format!("reading {}", png.display()))?
+        .into_luma8();
+    if mask.dimensions() != (width as u32, height as u32) {
+        bail!("{} is not {width}x{height}", png.display());
+    }
+    Ok(FrameTruth {
+        width,
+        disparity,
+        visible: mask.as_raw().iter().map(|&v| v > 0).collect(),
+    })
+}
+
+impl FrameTruth {
+    /// The errors of `msg` (as `disparity_node` publishes it: invalid below
+    /// `min_disparity`, shifted by the principal points' offset, 0 for these rigs).
+    pub fn score(&self, msg: &DisparityImage) -> DisparityScores {
+        let (mut seen, mut bad1, mut bad2, mut sum, mut valid) =
+            (0usize, 0usize, 0usize, 0.0, 0usize);
+        let values = msg
+            .image
+            .data
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]));
+        for ((d, &t), &visible) in values.zip(&self.disparity).zip(&self.visible) {
+            if !visible || t.is_nan() {
+                continue;
+            }
+            seen += 1;
+            if d < msg.min_disparity {
+                bad1 += 1;
+                bad2 += 1;
+                continue;
+            }
+            let error = f64::from((d - t).abs());
+            bad1 += usize::from(error > 1.0);
+            bad2 += usize::from(error > 2.0);
+            sum += error;
+            valid += 1;
+        }
+        let fraction = |n: usize| n as f64 / seen.max(1) as f64;
+        DisparityScores {
+            bad1: fraction(bad1),
+            bad2: fraction(bad2),
+            epe: sum / valid.max(1) as f64,
+            density: fraction(valid),
+        }
+    }
 }

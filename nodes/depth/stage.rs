@@ -179,26 +179,32 @@ fn grey_from_msg(msg: &ImageMsg, side: &'static str) -> Result<(Encoding, Image)
 
 /// The [`DisparityImage`] of `frame`, as stereo_image_proc publishes it: `32FC1`
 /// disparities shifted by the principal points' offset (`d - (cx_left - cx_right)`, so
-/// that `Z = f * T / d`), invalid pixels below `min_disparity`, and a `valid_window`
-/// that is empty rather than wrapping around when the search range exceeds the image.
+/// that `Z = f * T / d`), `min_disparity` and `max_disparity` the searched range
+/// (unshifted), invalid pixels at `min_disparity - 1 - (cx_left - cx_right)`: below
+/// every valid one. The `valid_window` holds the columns some searched disparity can
+/// match (`x - d` inside the image); it is computed without wrapping around.
 pub fn disparity_msg(frame: &DisparityFrame, header: Header) -> DisparityImage {
     let map = &frame.map;
     let r = &frame.reprojection;
     let offset = (r.cx_left - r.cx_right) as f32;
-    let min_disparity = map.min_disparity as f32 - offset;
+    let min_disparity = map.min_disparity as f32;
     let max_disparity = min_disparity + map.disparity_range as f32 - 1.0;
-    let invalid = min_disparity - 1.0;
+    let invalid = min_disparity - 1.0 - offset;
     let values: Vec<f32> = map
         .data
         .iter()
         .map(|&d| if d.is_nan() { invalid } else { d - offset })
         .collect();
     let image = disparity_image(&values, map.width, map.height, header.clone());
-    // A left pixel can only match when some searched disparity lands inside the right
-    // image: x - d in [0, width) for d in [min, min + range).
+    // Columns x with x - d in [0, width) for some d in [min, max]: x >= min and
+    // x <= width - 1 + max.
     let width = map.width as i64;
-    let first = i64::from(map.min_disparity).max(0);
-    let last = (width - 1 + i64::from(map.min_disparity).min(0)).min(width - 1);
+    let (min, max) = (
+        i64::from(map.min_disparity),
+        i64::from(map.min_disparity) + map.disparity_range as i64 - 1,
+    );
+    let first = min.max(0);
+    let last = (width - 1 + max.min(0)).min(width - 1);
     let valid_width = (last - first + 1).max(0);
     DisparityImage {
         header,

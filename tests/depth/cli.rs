@@ -6,31 +6,13 @@ use std::path::Path;
 
 use stereocal::cli::depth::{DepthArgs, PathsArg};
 use stereocal::cli::synth::{SceneArg, SynthArgs};
+use stereocal::cli::synth_depth::{FrameTruth, read_truth};
 use stereocal::depth::stage::{DepthRejection, DepthStage};
 use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg, PointCloud2};
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_rosbag::{BagReader, TopicFilter};
 use stereocal_vision::stereo::{ReprojectionError, SgmParams, StereoError};
-
-/// Disparity truth of a frame: the PFM `stereocal synth` writes, rows top to bottom.
-pub(super) fn read_pfm(path: &Path) -> (usize, usize, Vec<f32>) {
-    let bytes = std::fs::read(path).unwrap();
-    let mut lines = bytes.splitn(4, |&b| b == b'\n');
-    assert_eq!(lines.next().unwrap(), b"Pf");
-    let size = String::from_utf8(lines.next().unwrap().to_vec()).unwrap();
-    let (width, height) = size.split_once(' ').unwrap();
-    let (width, height): (usize, usize) = (width.parse().unwrap(), height.parse().unwrap());
-    assert_eq!(lines.next().unwrap(), b"-1.0");
-    let data = lines.next().unwrap();
-    let mut values = vec![0.0; width * height];
-    for (row, chunk) in data.chunks_exact(width * 4).enumerate() {
-        for (x, v) in chunk.chunks_exact(4).enumerate() {
-            values[(height - 1 - row) * width + x] = f32::from_le_bytes(v.try_into().unwrap());
-        }
-    }
-    (width, height, values)
-}
 
 pub(super) fn synthesize(dir: &Path, frames: usize) {
     let mut args = SynthArgs::new(SceneArg::Depth, dir.to_path_buf(), 3, frames);
@@ -99,17 +81,12 @@ fn disparities_of_a_rendered_bag_are_near_the_truth() {
             (0, 320)
         );
 
-        let (width, height, truth) = read_pfm(
-            &dir.path()
-                .join(format!("truth/frame_{index:03}_disparity.pfm")),
-        );
-        assert_eq!((width, height), (320, 240));
-        let visible = image::open(
-            dir.path()
-                .join(format!("truth/frame_{index:03}_visible.png")),
-        )
-        .unwrap()
-        .into_luma8();
+        let FrameTruth {
+            width,
+            disparity: truth,
+            visible,
+        } = read_truth(dir.path(), index).unwrap();
+        assert_eq!((width, truth.len()), (320, 320 * 240));
         let values: Vec<f32> = msg
             .image
             .data
@@ -118,7 +95,7 @@ fn disparities_of_a_rendered_bag_are_near_the_truth() {
             .collect();
         let (mut seen, mut bad, mut invalid, mut error_sum, mut valid) = (0, 0, 0, 0.0, 0);
         for (i, (&d, &t)) in values.iter().zip(&truth).enumerate() {
-            if visible.as_raw()[i] == 0 {
+            if !visible[i] {
                 continue;
             }
             seen += 1;
@@ -193,6 +170,18 @@ fn a_disparity_range_the_image_cannot_hold_is_refused() {
     args.disparity_range = 320;
     let message = format!("{:#}", stereocal::cli::depth::run(&args).unwrap_err());
     assert!(message.contains("no pair"), "{message}");
+
+    // A bag that already has the output topics: the new messages would mix with them.
+    let first = dir.path().join("first");
+    stereocal::cli::depth::run(&depth_args(&bag, &first)).unwrap();
+    let message = format!(
+        "{:#}",
+        stereocal::cli::depth::run(&depth_args(&first, &dir.path().join("again"))).unwrap_err()
+    );
+    assert!(
+        message.contains("already has /stereo/disparity"),
+        "{message}"
+    );
 
     let mut args = depth_args(&bag, &dir.path().join("c"));
     args.left_topic = Some("/stereo/left/image_raw".into());

@@ -3,7 +3,7 @@
 //! same result on any number of threads, and 16-bit input matching as 8-bit.
 
 use stereocal_vision::image::{Image, Samples};
-use stereocal_vision::stereo::{DisparityMap, SemiGlobalMatcher, SgmParams};
+use stereocal_vision::stereo::{DisparityMap, SemiGlobalMatcher, SgmParams, StereoError};
 use stereocal_vision::synth::depth::{DepthPair, DepthRig, DepthScene, PairPhotometry};
 
 /// Bad-2.0 (invalid counted as bad) and mean error of the valid pixels, over the
@@ -119,4 +119,19 @@ fn a_wall_at_three_metres_is_within_one_percent_of_its_depth() {
         p95 < 0.01,
         "95th percentile of the relative depth error {p95}"
     );
+}
+
+#[test]
+fn a_pair_too_large_to_match_is_refused_before_anything_is_allocated() {
+    // 4096x4096 with 64 disparities: 2^30 costs, twice the limit.
+    let image = Image::zeros_u8(4096, 4096, 1);
+    let params = SgmParams {
+        disparity_range: 64,
+        ..SgmParams::default()
+    };
+    let error = SemiGlobalMatcher::new(params)
+        .compute(&image, &image)
+        .unwrap_err();
+    assert!(matches!(error, StereoError::TooLarge { .. }), "{error}");
+    assert!(error.to_string().contains("4096x4096"), "{error}");
 }

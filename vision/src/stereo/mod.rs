@@ -20,7 +20,7 @@ mod speckle;
 pub use census::{BITS as CENSUS_BITS, Sample, census_transform};
 pub use params::{MAX_P2, MAX_REFINE_RADIUS, Paths, SgmParams};
 pub use reproject::{Reprojection, ReprojectionError};
-pub use sgm::SemiGlobalMatcher;
+pub use sgm::{MAX_COST_CELLS, SemiGlobalMatcher};
 
 use thiserror::Error;
 
@@ -62,6 +62,9 @@ impl DisparityMap {
 
     /// The disparity at `(x, y)`, if valid.
     pub fn at(&self, x: usize, y: usize) -> Option<f32> {
+        if x >= self.width {
+            return None;
+        }
         self.data
             .get(y * self.width + x)
             .copied()
@@ -110,6 +113,20 @@ pub enum StereoError {
         width: usize,
         /// Height.
         height: usize,
+    },
+    /// The pair is too large to match: its cost volume would exceed the limit.
+    #[error(
+        "a {width}x{height} pair with {range} disparities has more matching costs than the limit of {limit}: use smaller images or fewer disparities"
+    )]
+    TooLarge {
+        /// Width.
+        width: usize,
+        /// Height.
+        height: usize,
+        /// Disparities searched.
+        range: usize,
+        /// Largest number of costs.
+        limit: usize,
     },
     /// The disparity range cannot be used.
     #[error("disparity range {range}: {reason}")]

@@ -311,7 +311,8 @@ fn refine_pixel<'a, A: Accumulator>(
         // Right samples of the window's first column: x0 + f (x0 whole, f in [0, 1)).
         let position = left_x as f32 - disparity;
         let x0 = position.floor();
-        if x0 < 0.0 || x0 as usize + side >= width {
+        // Column 0 has no central difference: windows start at column 1.
+        if x0 < 1.0 || x0 as usize + side >= width {
             return None;
         }
         let (x0, f) = (x0 as usize, position - x0);

@@ -49,7 +49,15 @@ pub struct SemiGlobalMatcher {
     sweepers: [Sweeper; 2],
     speckles: SpeckleFilter,
     refiner: Refiner,
+    /// The disparities before the refinement, kept for the matches it would move out of
+    /// the searched range.
+    first_estimates: Vec<f32>,
 }
+
+/// Largest number of matching costs (pixels times disparities) of a pair: the cost
+/// volume takes one byte per cost and the aggregated sums two, so about 1.6 GB at the
+/// limit (1920x1080 with 256 disparities is within it).
+pub const MAX_COST_CELLS: usize = 1 << 29;
 
 /// Gauss-Newton steps of the sub-pixel refinement: the first lands within a few
 /// hundredths of a pixel, the second settles it.
@@ -308,6 +316,7 @@ impl SemiGlobalMatcher {
             sweepers: Default::default(),
             speckles: SpeckleFilter::default(),
             refiner: Refiner::default(),
+            first_estimates: Vec::new(),
         }
     }
 
@@ -348,6 +357,17 @@ impl SemiGlobalMatcher {
         self.params.validate(width)?;
         let range = self.params.disparity_range;
         let pixels = width * height;
+        if pixels
+            .checked_mul(range)
+            .is_none_or(|cells| cells > MAX_COST_CELLS)
+        {
+            return Err(StereoError::TooLarge {
+                width,
+                height,
+                range,
+                limit: MAX_COST_CELLS,
+            });
+        }
 
         self.census_left.resize(pixels, 0);
         self.census_right.resize(pixels, 0);
@@ -438,6 +458,7 @@ impl SemiGlobalMatcher {
                 );
             }
         }
+        self.first_estimates.clone_from(&out.data);
         self.refiner.refine(
             &mut out.data,
             left,
@@ -445,6 +466,15 @@ impl SemiGlobalMatcher {
             self.params.refine_radius,
             REFINE_ITERATIONS,
         );
+        // A refined match that leaves the searched range keeps its first estimate: a
+        // disparity outside the range would read as invalid downstream.
+        let lowest = self.params.min_disparity as f32;
+        let highest = lowest + (range - 1) as f32;
+        for (refined, &first) in out.data.iter_mut().zip(&self.first_estimates) {
+            if !(lowest..=highest).contains(refined) {
+                *refined = first;
+            }
+        }
         self.speckles.apply(
             &mut out.data,
             width,
