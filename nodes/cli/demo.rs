@@ -233,7 +233,7 @@ fn depth_session(out: &Path) -> anyhow::Result<()> {
         let scores = truth.score(&msg);
         println!(
             "  pair {index}: bad-1.0 {:.3}, bad-2.0 {:.3}, mean error {:.3} px, {:.1} % valid \
-             (OpenCV StereoSGBM on such rooms: bad-2.0 0.22, 0.52 px)",
+             (OpenCV StereoSGBM on such rooms: bad-2.0 0.22, mean error 0.52 px)",
             scores.bad1,
             scores.bad2,
             scores.epe,
