@@ -140,7 +140,7 @@ fn the_composed_stereo_pair_rectifies_both_sides_in_one_process() {
 fn a_composition_naming_an_unknown_node_is_refused_at_start_up() {
     let dir = tempfile::tempdir().expect("temp dir");
     let file = dir.path().join("composition.yaml");
-    std::fs::write(&file, "nodes:\n  - node: rectify\n  - node: disparity\n").expect("write");
+    std::fs::write(&file, "nodes:\n  - node: rectify\n  - node: rektify\n").expect("write");
     let output = Command::new(env!("CARGO_BIN_EXE_stereocal"))
         .args(["node", "compose"])
         .arg(&file)
@@ -150,7 +150,7 @@ fn a_composition_naming_an_unknown_node_is_refused_at_start_up() {
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success());
     assert!(
-        stderr.contains("node 2 is \"disparity\": expected one of rectify, calibrate"),
+        stderr.contains("node 2 is \"rektify\": expected one of rectify, calibrate"),
         "{stderr}"
     );
     assert!(

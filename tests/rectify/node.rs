@@ -253,15 +253,17 @@ where
         "parameter service not discovered"
     );
     // A reply sent before the server has matched our response reader is lost (the
-    // service topics are volatile), so a call that goes unanswered is repeated.
-    for _ in 0..10 {
+    // service topics are volatile), so a call that goes unanswered is repeated until
+    // the deadline.
+    let deadline = Instant::now() + TIMEOUT;
+    while Instant::now() < deadline {
         if let Some(response) =
             service::call(client, &request, Duration::from_secs(2)).expect("service call")
         {
             return response;
         }
     }
-    panic!("parameter service never answered")
+    panic!("parameter service never answered in {TIMEOUT:?}")
 }
 
 fn integer(name: &str, value: i64) -> wire::Parameter {
