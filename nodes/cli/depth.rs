@@ -182,10 +182,8 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
     let copy_ids = writer.add_topics_of(reader.topics())?;
     let disparity_id =
         writer.add_message_topic::<DisparityImage>(&disparity_topic, &OfferedQos::default())?;
-    let points_id = writer.add_message_topic::<PointCloud2>(
-        &format!("{output_ns}/points2"),
-        &OfferedQos::default(),
-    )?;
+    let points_id =
+        writer.add_message_topic::<PointCloud2>(&points_topic, &OfferedQos::default())?;
 
     let progress = if args.json {
         ProgressBar::hidden()
