@@ -30,7 +30,8 @@ ROOT = Path(__file__).resolve().parent.parent
 #: values prove the file reached the nodes.
 RECTIFY_PARAMS = {"interpolation": 2, "queue_size": 3}
 #: Launch arguments that only say where an executable is (left out of the check names).
-EXECUTABLES = {"rectify_node", "calibrate_node", "pose_node", "handeye_node", "stereocal", "params_file"}
+EXECUTABLES = {"rectify_node", "calibrate_node", "pose_node", "handeye_node", "disparity_node",
+               "point_cloud_node", "stereocal", "params_file"}
 #: The params file launch/pose.launch.py gives pose_node by default.
 POSE_PARAMS_FILE = ROOT / "config" / "pose_node.yaml"
 
@@ -84,7 +85,36 @@ def handeye_graph(camera, robot_pose, values):
     }
 
 
-def cases(rectify_node, calibrate_node, pose_node, handeye_node, stereocal, rectify_params):
+#: The params file launch/stereo_depth.launch.py gives both depth nodes by default.
+DEPTH_PARAMS_FILE = ROOT / "config" / "stereo_depth.yaml"
+
+
+def depth_graph(camera, disparity_range):
+    """disparity_node and point_cloud_node in `camera`, as launch/stereo_depth.launch.py
+    starts them, with config/stereo_depth.yaml's values (its disparity_range, 128, is
+    not the node's default, 64) and `disparity_range` over it."""
+    params = yaml.safe_load(DEPTH_PARAMS_FILE.read_text())
+    disparity = {**params["/**/disparity_node"]["ros__parameters"],
+                 "disparity_range": disparity_range}
+    cloud = params["/**/point_cloud_node"]["ros__parameters"]
+    pair = {f"{camera}/{side}/{name}": kind
+            for side in ("left", "right")
+            for name, kind in (("image_rect", "sensor_msgs/msg/Image"),
+                               ("camera_info", "sensor_msgs/msg/CameraInfo"))}
+    return {
+        f"{camera}/disparity_node": (
+            pair, {f"{camera}/disparity": "stereo_msgs/msg/DisparityImage"}, {}, disparity),
+        f"{camera}/point_cloud_node": (
+            {f"{camera}/left/image_rect": "sensor_msgs/msg/Image",
+             f"{camera}/left/camera_info": "sensor_msgs/msg/CameraInfo",
+             f"{camera}/right/camera_info": "sensor_msgs/msg/CameraInfo",
+             f"{camera}/disparity": "stereo_msgs/msg/DisparityImage"},
+            {f"{camera}/points2": "sensor_msgs/msg/PointCloud2"}, {}, cloud),
+    }
+
+
+def cases(rectify_node, calibrate_node, pose_node, handeye_node, disparity_node,
+          point_cloud_node, stereocal, rectify_params):
     """(launch file, launch arguments, processes started, {node: (subscribed,
     published, called services, parameter values)}) for every launch file, as its
     documentation describes it."""
@@ -156,6 +186,14 @@ def cases(rectify_node, calibrate_node, pose_node, handeye_node, stereocal, rect
          ["/handeye_node"],
          handeye_graph("/scene_camera", "/robot/tool_pose", {
              "setup": "eye_to_hand", "robot_source": "topic", "size": "8x6", "square": 0.03})),
+        ("stereo_depth.launch.py", {"disparity_node": disparity_node,
+                                    "point_cloud_node": point_cloud_node},
+         ["/stereo/disparity_node", "/stereo/point_cloud_node"], depth_graph("/stereo", 128)),
+        ("stereo_depth.launch.py", {"disparity_node": disparity_node,
+                                    "point_cloud_node": point_cloud_node,
+                                    "camera": "/my_stereo", "disparity_range": "96"},
+         ["/my_stereo/disparity_node", "/my_stereo/point_cloud_node"],
+         depth_graph("/my_stereo", 96)),
     ]
 
 
@@ -235,20 +273,25 @@ def main():
     parser.add_argument("--calibrate-node", default=str(ROOT / "target" / "debug" / "calibrate_node"))
     parser.add_argument("--pose-node", default=str(ROOT / "target" / "debug" / "pose_node"))
     parser.add_argument("--handeye-node", default=str(ROOT / "target" / "debug" / "handeye_node"))
+    parser.add_argument("--disparity-node", default=str(ROOT / "target" / "debug" / "disparity_node"))
+    parser.add_argument("--point-cloud-node",
+                        default=str(ROOT / "target" / "debug" / "point_cloud_node"))
     parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
     args = parser.parse_args()
     for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.handeye_node,
-                   args.stereocal):
+                   args.disparity_node, args.point_cloud_node, args.stereocal):
         if not Path(binary).exists():
             sys.exit(f"{binary} not found; build it with `cargo build --bin rectify_node "
-                     "--bin calibrate_node --bin pose_node --bin handeye_node --bin stereocal`")
+                     "--bin calibrate_node --bin pose_node --bin handeye_node "
+                     "--bin disparity_node --bin point_cloud_node --bin stereocal`")
     checks = Checks()
     with tempfile.TemporaryDirectory() as workdir:
         # calibrate_node keeps its samples under $ROS_HOME: a folder of this check's own.
         os.environ["ROS_HOME"] = workdir
         for launch_file, arguments, processes, expected in cases(
                 args.rectify_node, args.calibrate_node, args.pose_node, args.handeye_node,
-                args.stereocal, rectify_params_file(workdir)):
+                args.disparity_node, args.point_cloud_node, args.stereocal,
+                rectify_params_file(workdir)):
             check_case(checks, launch_file, arguments, processes, expected, workdir)
     return checks.table()
 
