@@ -14,7 +14,7 @@ use stereocal_vision::stereo::{
 use thiserror::Error;
 
 use super::cloud::{CloudError, CloudLayout, cloud};
-use crate::convert::{Encoding, ImageMsgError, image_from_msg};
+use crate::convert::{Encoding, ImageMsgError, decode_image_into};
 
 /// Smallest disparity increment a [`DisparityImage`] from this stage declares: the
 /// disparities are floats refined on the images, finer than OpenCV's sixteenths.
@@ -74,9 +74,12 @@ pub struct DisparityFrame {
     pub reprojection: Reprojection,
 }
 
-/// Matches rectified pairs, keeping the matcher's buffers between pairs.
+/// Matches rectified pairs, keeping the matcher's buffers and the decoded images
+/// between pairs.
 pub struct DepthStage {
     matcher: SemiGlobalMatcher,
+    left: Image,
+    right: Image,
 }
 
 impl DepthStage {
@@ -84,6 +87,8 @@ impl DepthStage {
     pub fn new(params: SgmParams) -> Self {
         Self {
             matcher: SemiGlobalMatcher::new(params),
+            left: Image::zeros_u8(0, 0, 1),
+            right: Image::zeros_u8(0, 0, 1),
         }
     }
 
@@ -103,8 +108,9 @@ impl DepthStage {
     ) -> Result<DisparityFrame, DepthRejection> {
         let reprojection =
             Reprojection::from_projections(&projection(left_info), &projection(right_info))?;
-        let (left_encoding, left_image) = grey_from_msg(left, "left")?;
-        let (right_encoding, right_image) = grey_from_msg(right, "right")?;
+        let left_encoding = grey_from_msg(left, "left", &mut self.left)?;
+        let right_encoding = grey_from_msg(right, "right", &mut self.right)?;
+        let (left_image, right_image) = (&self.left, &self.right);
         let describe = |image: &Image, encoding: Encoding| {
             format!("{}x{} {}", image.width, image.height, encoding.ros_name())
         };
@@ -113,13 +119,13 @@ impl DepthStage {
                 != std::mem::discriminant(&right_image.samples)
         {
             return Err(DepthRejection::PairMismatch {
-                left: describe(&left_image, left_encoding),
-                right: describe(&right_image, right_encoding),
+                left: describe(left_image, left_encoding),
+                right: describe(right_image, right_encoding),
             });
         }
         for (side, image, info) in [
-            ("left", &left_image, left_info),
-            ("right", &right_image, right_info),
+            ("left", left_image, left_info),
+            ("right", right_image, right_info),
         ] {
             if (image.width as u32, image.height as u32) != (info.width, info.height) {
                 return Err(DepthRejection::InfoSize {
@@ -131,7 +137,7 @@ impl DepthStage {
                 });
             }
         }
-        let map = self.matcher.compute(&left_image, &right_image)?;
+        let map = self.matcher.compute(left_image, right_image)?;
         Ok(DisparityFrame { map, reprojection })
     }
 }
@@ -141,17 +147,22 @@ fn projection(info: &CameraInfo) -> Matrix3x4<f64> {
     Matrix3x4::from_row_slice(&info.p)
 }
 
-/// A single-channel image from an image message: grey images as they are, 8-bit colour
-/// by the luma of ITU-R BT.601 (as OpenCV's `COLOR_RGB2GRAY`).
-fn grey_from_msg(msg: &ImageMsg, side: &'static str) -> Result<(Encoding, Image), DepthRejection> {
-    let (encoding, image) =
-        image_from_msg(msg).map_err(|error| DepthRejection::Image { side, error })?;
+/// A single-channel image from an image message into `out` (its buffer reused): grey
+/// images as they are, 8-bit colour by the luma of ITU-R BT.601 (as OpenCV's
+/// `COLOR_RGB2GRAY`). Returns the message's encoding.
+fn grey_from_msg(
+    msg: &ImageMsg,
+    side: &'static str,
+    out: &mut Image,
+) -> Result<Encoding, DepthRejection> {
+    let encoding =
+        decode_image_into(msg, out).map_err(|error| DepthRejection::Image { side, error })?;
     let channels = encoding.channels();
     if channels == 1 {
-        return Ok((encoding, image));
+        return Ok(encoding);
     }
-    let Samples::U8(samples) = &image.samples else {
-        return Ok((encoding, image));
+    let Samples::U8(samples) = &out.samples else {
+        return Ok(encoding);
     };
     // Weights of red, green and blue in the order of the encoding's first three
     // channels, in 1/2^14 (OpenCV's fixed-point luma).
@@ -166,15 +177,9 @@ fn grey_from_msg(msg: &ImageMsg, side: &'static str) -> Result<(Encoding, Image)
             ((sum + (1 << 13)) >> 14) as u8
         })
         .collect();
-    Ok((
-        encoding,
-        Image {
-            width: image.width,
-            height: image.height,
-            channels: 1,
-            samples: Samples::U8(grey),
-        },
-    ))
+    out.channels = 1;
+    out.samples = Samples::U8(grey);
+    Ok(encoding)
 }
 
 /// The [`DisparityImage`] of `frame`, as stereo_image_proc publishes it: `32FC1`

@@ -16,7 +16,7 @@ use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image, PointCloud2};
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_runtime::qos;
-use stereocal_runtime::testing::{DomainLease, NodeProcess};
+use stereocal_runtime::testing::{DomainLease, NodeProcess, PeerNode};
 use stereocal_vision::stereo::SgmParams;
 
 use super::cli::{messages, synthesize};
@@ -54,7 +54,43 @@ struct Player {
     received: Vec<DisparityImage>,
 }
 
+/// The rectified pairs of a rendered depth bag, with their camera_infos.
+fn pairs_of(bag: &std::path::Path) -> Vec<Pair> {
+    let topic = |side: &str, name: &str| format!("/stereo/{side}/{name}");
+    let lefts: Vec<Image> = messages(bag, &topic("left", "image_rect"));
+    let rights: Vec<Image> = messages(bag, &topic("right", "image_rect"));
+    let left_infos: Vec<CameraInfo> = messages(bag, &topic("left", "camera_info"));
+    let right_infos: Vec<CameraInfo> = messages(bag, &topic("right", "camera_info"));
+    (0..lefts.len())
+        .map(|i| Pair {
+            left: lefts[i].clone(),
+            right: rights[i].clone(),
+            left_info: left_infos[i].clone(),
+            right_info: right_infos[i].clone(),
+        })
+        .collect()
+}
+
 impl Player {
+    /// Publishers of the pair's topics in /stereo and a subscriber of its disparity.
+    fn new(peer: &mut PeerNode) -> Self {
+        let topic = |side: &str, name: &str| format!("/stereo/{side}/{name}");
+        Self {
+            images: ["left", "right"].map(|side| {
+                peer.publisher(&topic(side, "image_rect"), qos::reliable(10))
+                    .unwrap()
+            }),
+            infos: ["left", "right"].map(|side| {
+                peer.publisher(&topic(side, "camera_info"), qos::reliable(10))
+                    .unwrap()
+            }),
+            disparity: peer
+                .subscription("/stereo/disparity", qos::reliable(10))
+                .unwrap(),
+            received: Vec::new(),
+        }
+    }
+
     fn poll(&mut self) {
         while let Ok(Some((m, _))) = self.disparity.take() {
             self.received.push(m);
@@ -93,37 +129,11 @@ impl Player {
 fn replayed_pairs_get_their_disparity_over_dds_as_the_stage_computes_it() {
     let dir = tempfile::tempdir().unwrap();
     synthesize(dir.path(), 2);
-    let bag = dir.path().join("bag");
-    let topic = |side: &str, name: &str| format!("/stereo/{side}/{name}");
-    let lefts: Vec<Image> = messages(&bag, &topic("left", "image_rect"));
-    let rights: Vec<Image> = messages(&bag, &topic("right", "image_rect"));
-    let left_infos: Vec<CameraInfo> = messages(&bag, &topic("left", "camera_info"));
-    let right_infos: Vec<CameraInfo> = messages(&bag, &topic("right", "camera_info"));
-    let pairs: Vec<Pair> = (0..2)
-        .map(|i| Pair {
-            left: lefts[i].clone(),
-            right: rights[i].clone(),
-            left_info: left_infos[i].clone(),
-            right_info: right_infos[i].clone(),
-        })
-        .collect();
+    let pairs = pairs_of(&dir.path().join("bag"));
 
     let domain = DomainLease::for_test().unwrap();
     let mut peer = common::test_node(&domain, "disparity_player");
-    let mut player = Player {
-        images: ["left", "right"].map(|side| {
-            peer.publisher(&topic(side, "image_rect"), qos::reliable(10))
-                .unwrap()
-        }),
-        infos: ["left", "right"].map(|side| {
-            peer.publisher(&topic(side, "camera_info"), qos::reliable(10))
-                .unwrap()
-        }),
-        disparity: peer
-            .subscription("/stereo/disparity", qos::reliable(10))
-            .unwrap(),
-        received: Vec::new(),
-    };
+    let mut player = Player::new(&mut peer);
     let mut command = Command::new(env!("CARGO_BIN_EXE_disparity_node"));
     command.args([
         "--ros-args",
@@ -198,31 +208,11 @@ fn replayed_pairs_get_their_disparity_over_dds_as_the_stage_computes_it() {
 fn a_replayed_pair_gets_its_point_cloud_through_both_nodes() {
     let dir = tempfile::tempdir().unwrap();
     synthesize(dir.path(), 1);
-    let bag = dir.path().join("bag");
-    let topic = |side: &str, name: &str| format!("/stereo/{side}/{name}");
-    let pair = Pair {
-        left: messages::<Image>(&bag, &topic("left", "image_rect")).remove(0),
-        right: messages::<Image>(&bag, &topic("right", "image_rect")).remove(0),
-        left_info: messages::<CameraInfo>(&bag, &topic("left", "camera_info")).remove(0),
-        right_info: messages::<CameraInfo>(&bag, &topic("right", "camera_info")).remove(0),
-    };
+    let pair = pairs_of(&dir.path().join("bag")).remove(0);
 
     let domain = DomainLease::for_test().unwrap();
     let mut peer = common::test_node(&domain, "cloud_player");
-    let mut player = Player {
-        images: ["left", "right"].map(|side| {
-            peer.publisher(&topic(side, "image_rect"), qos::reliable(10))
-                .unwrap()
-        }),
-        infos: ["left", "right"].map(|side| {
-            peer.publisher(&topic(side, "camera_info"), qos::reliable(10))
-                .unwrap()
-        }),
-        disparity: peer
-            .subscription("/stereo/disparity", qos::reliable(10))
-            .unwrap(),
-        received: Vec::new(),
-    };
+    let mut player = Player::new(&mut peer);
     let clouds = peer
         .subscription::<PointCloud2>("/stereo/points2", qos::reliable(10))
         .unwrap();
