@@ -19,15 +19,35 @@ pub fn declare_target(builder: NodeBuilder) -> NodeBuilder {
         ParamSpec::new(name, ParameterValue::Double(default), description).double_range(0.0..=max)
     };
     [
-        string("pattern", "chessboard", "calibration target").one_of(&["chessboard", "charuco"]),
+        string("pattern", "chessboard", "calibration target").one_of(&[
+            "chessboard",
+            "charuco",
+            "circles",
+            "acircles",
+        ]),
         string(
             "size",
             "",
-            "target size COLSxROWS: a chessboard's inner corners, a ChArUco board's squares (required)",
+            "target size COLSxROWS: a chessboard's inner corners, a ChArUco board's squares, a \
+             circle grid's circles per row and rows (required)",
         ),
-        double("square", 0.0, MAX_SQUARE, "side of one square, metres (required)"),
-        double("marker_size", 0.0, MAX_SQUARE, "ChArUco marker side, metres"),
-        string("dictionary", "4x4_50", "ChArUco marker dictionary, e.g. 4x4_50, 5x5_100"),
+        double(
+            "square",
+            0.0,
+            MAX_SQUARE,
+            "side of one square, or a circle grid's spacing, metres (required)",
+        ),
+        double(
+            "marker_size",
+            0.0,
+            MAX_SQUARE,
+            "ChArUco marker side, metres",
+        ),
+        string(
+            "dictionary",
+            "4x4_50",
+            "ChArUco marker dictionary, e.g. 4x4_50, 5x5_100",
+        ),
     ]
     .into_iter()
     .fold(builder, NodeBuilder::param)

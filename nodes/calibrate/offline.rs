@@ -150,6 +150,10 @@ impl Judge<'_> {
         let corners = match &detection {
             None => FrameCorners::Unusable(match target {
                 Target::Chessboard(_) => "no complete board found".to_owned(),
+                Target::Circles(_) | Target::Acircles(_) => format!(
+                    "no complete {} found (every circle in view, one grid only)",
+                    target.describe()
+                ),
                 Target::Charuco(_) => format!(
                     "no ChArUco board found (at least {MIN_CHARUCO_CORNERS} corners, not all in one line)"
                 ),

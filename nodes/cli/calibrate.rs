@@ -34,14 +34,14 @@ pub struct CalibrateArgs {
     /// Output directory for the camera_info YAML files (and stereo.yaml).
     #[arg(long)]
     pub out: PathBuf,
-    /// Target kind, as ROS camera_calibration: chessboard or charuco.
+    /// Target kind, as ROS camera_calibration: chessboard, charuco, circles or acircles.
     #[arg(long, default_value = "chessboard")]
     pub pattern: String,
-    /// Inner corners of the chessboard, or squares of the ChArUco board, COLSxROWS
-    /// (e.g. 9x6).
+    /// Inner corners of the chessboard, squares of the ChArUco board, or circles per
+    /// row and rows of a circle grid, COLSxROWS (e.g. 9x6, 4x11).
     #[arg(long)]
     pub size: String,
-    /// Side of one square, metres.
+    /// Side of one square (a circle grid's spacing), metres.
     #[arg(long)]
     pub square: String,
     /// The markers of a ChArUco board.

@@ -140,9 +140,9 @@ pub struct SynthCommand {
 /// The target a synthetic scene shows.
 #[derive(clap::Args, Debug, Default)]
 pub struct SynthTargetArgs {
-    /// Target definition (`config/boards/*.yaml`: a chessboard or a ChArUco board),
-    /// printed with a white margin of one square; default: a 9x6 chessboard of 40 mm
-    /// squares (30 mm for hand-eye).
+    /// Target definition (`config/boards/*.yaml`: a chessboard, a ChArUco board or a
+    /// circle grid), printed with a white margin of one square (one spacing); default:
+    /// a 9x6 chessboard of 40 mm squares (30 mm for hand-eye).
     #[arg(long)]
     pub board: Option<PathBuf>,
 }

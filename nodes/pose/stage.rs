@@ -214,6 +214,9 @@ impl PoseStage {
             Target::Chessboard(_) => {
                 " (a chessboard is found only when every inner corner is)".to_owned()
             }
+            Target::Circles(_) | Target::Acircles(_) => {
+                " (a circle grid is found only when every circle is, and one grid only)".to_owned()
+            }
             Target::Charuco(_) => format!(
                 " (a ChArUco board needs at least {MIN_CHARUCO_CORNERS} corners, not all on one line)"
             ),

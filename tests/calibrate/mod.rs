@@ -2,6 +2,7 @@
 //! report, and the one result schema they share.
 
 mod charuco;
+mod circles;
 mod cli;
 mod node;
 mod node_params;

@@ -13,6 +13,7 @@ mod camera_jacobians;
 mod camera_opencv;
 mod camera_undistort;
 mod charuco;
+mod circles;
 mod common;
 mod geometry_synthetic;
 mod pnp_opencv_failures;

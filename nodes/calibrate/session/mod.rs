@@ -351,7 +351,10 @@ impl CalibrationSession {
         if !missing.is_empty() {
             let board = match &self.config.target {
                 Target::Chessboard(b) => format!("whole {}x{} board", b.cols, b.rows),
-                Target::Charuco(b) => format!("{}x{} ChArUco board", b.squares_x, b.squares_y),
+                Target::Circles(_) | Target::Acircles(_) => {
+                    format!("whole {}", self.config.target.describe())
+                }
+                target @ Target::Charuco(_) => target.describe(),
             };
             return Ok(Verdict::Refused(format!(
                 "no {board} found in {}: keep the whole board in view{}, well lit and in focus, and hold it still",
@@ -542,7 +545,10 @@ impl CalibrationSession {
         detections
             .iter()
             .zip(sizes)
-            .map(|(d, &(w, h))| sample_params(d, self.layout.cols, self.layout.rows, w, h))
+            .map(|(d, &(w, h))| {
+                let (cols, rows) = self.layout.grid();
+                sample_params(d, cols, rows, w, h)
+            })
             .collect()
     }
 }
@@ -557,6 +563,9 @@ fn describe(target: &Target, cameras: &[String]) -> String {
             "a {}x{} ChArUco board of {} m squares",
             b.squares_x, b.squares_y, b.square_size
         ),
+        Target::Circles(g) | Target::Acircles(g) => {
+            format!("a {} at a spacing of {} m", target.describe(), g.spacing)
+        }
     };
     format!("{board} seen by {cameras:?}")
 }

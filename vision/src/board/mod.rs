@@ -1,4 +1,4 @@
-//! Calibration targets (chessboard, ChArUco) and their detection in images.
+//! Calibration targets (chessboard, ChArUco, symmetric and asymmetric circle grids) and their detection in images.
 //!
 //! Targets are defined in `config/boards/*.yaml` or on a command line in ROS
 //! camera_calibration's style (`--pattern chessboard --size 9x6 --square 0.025`).
@@ -7,6 +7,7 @@
 
 mod charuco;
 mod chessboard;
+mod circles;
 mod contained;
 mod detection;
 mod gray;
@@ -17,13 +18,16 @@ mod target;
 
 pub use charuco::{CharucoDetector, MIN_CHARUCO_CORNERS};
 pub use chessboard::ChessboardDetector;
+pub use circles::{CircleGridDetector, CircleGridMiss};
 pub use detection::{Detection, TargetDetector};
 pub use gray::Gray;
 pub use pattern_args::{
     PatternArgs, TargetPart, parse_pattern_args, parse_size, target_from_parts,
 };
 pub use subpixel::{SubpixelWindow, refine_corners};
-pub use target::{ArucoDictionary, Charuco, Chessboard, Target};
+pub use target::{
+    ArucoDictionary, Charuco, Chessboard, CircleGrid, CircleLayout, DEFAULT_DIAMETER_RATIO, Target,
+};
 
 use thiserror::Error;
 
@@ -70,10 +74,12 @@ pub enum BoardError {
     Unsupported(String),
 }
 
-/// The detector of `target`: a [`ChessboardDetector`] or a [`CharucoDetector`].
+/// The detector of `target`: a [`ChessboardDetector`], a [`CharucoDetector`] or a
+/// [`CircleGridDetector`].
 pub fn detector_for(target: &Target) -> Result<Box<dyn TargetDetector + Send + Sync>, BoardError> {
     Ok(match target {
         Target::Chessboard(board) => Box::new(ChessboardDetector::new(*board)?),
         Target::Charuco(board) => Box::new(CharucoDetector::new(board.clone())?),
+        Target::Circles(_) | Target::Acircles(_) => Box::new(CircleGridDetector::new(target)?),
     })
 }

@@ -1,17 +1,19 @@
 //! Targets from a command line in ROS camera_calibration's style:
-//! `--pattern chessboard --size 9x6 --square 0.025`, or for ChArUco
+//! `--pattern chessboard --size 9x6 --square 0.025`, for ChArUco
 //! `--pattern charuco --size 7x5 --square 0.04 --charuco_marker_size 0.03
-//! --aruco_dict 5x5_100` (for ChArUco, as in camera_calibration, `--size` counts
-//! squares; for a chessboard, inner corners). [`target_from_parts`] builds the same
+//! --aruco_dict 5x5_100`, for circle grids `--pattern acircles --size 4x11 --square
+//! 0.02` (as in camera_calibration, `--size` counts squares of a ChArUco board, inner
+//! corners of a chessboard, circles per row and rows of a circle grid). [`target_from_parts`] builds the same
 //! targets from values parsed elsewhere (a node's parameters).
 
 use super::BoardError;
-use super::target::{ArucoDictionary, Charuco, Chessboard, Target};
+use super::target::{ArucoDictionary, Charuco, Chessboard, CircleGrid, CircleLayout, Target};
 
 /// The target options of a command line, before they are checked.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PatternArgs {
-    /// `--pattern` / `-p`: `chessboard` (the default) or `charuco`.
+    /// `--pattern` / `-p`: `chessboard` (the default), `charuco`, `circles` or
+    /// `acircles`.
     pub pattern: Option<String>,
     /// `--size` / `-s`: `COLSxROWS`.
     pub size: Option<String>,
@@ -78,7 +80,7 @@ impl PatternArgs {
             .ok_or_else(|| BoardError::Args("--square METRES is required".to_string()))
             .and_then(|s| parse_metres("--square", s))?;
         let pattern = self.pattern.as_deref().unwrap_or("chessboard");
-        if pattern == "chessboard" && (self.marker_size.is_some() || self.aruco_dict.is_some()) {
+        if pattern != "charuco" && (self.marker_size.is_some() || self.aruco_dict.is_some()) {
             return Err(BoardError::Args(
                 "--charuco_marker_size and --aruco_dict only apply to --pattern charuco"
                     .to_string(),
@@ -116,11 +118,12 @@ pub enum TargetPart {
     Dictionary,
 }
 
-/// The target `pattern` (`chessboard` or `charuco`) describes. `(cols, rows)` counts
-/// inner corners of a chessboard and squares of a ChArUco board (as ROS
-/// camera_calibration does); `square` is the square side in metres. A ChArUco board
+/// The target `pattern` (`chessboard`, `charuco`, `circles` or `acircles`) describes.
+/// `(cols, rows)` counts inner corners of a chessboard, squares of a ChArUco board, and
+/// circles per row and rows of a circle grid (as ROS camera_calibration does);
+/// `square` is the square side (a circle grid's spacing) in metres. A ChArUco board
 /// also needs `marker_size` (metres, smaller than `square`) and takes `dictionary`
-/// (camera_calibration's default `4x4_50` when `None`); a chessboard ignores both.
+/// (camera_calibration's default `4x4_50` when `None`); other targets ignore both.
 /// An error says which part of the description is wrong.
 pub fn target_from_parts(
     pattern: &str,
@@ -139,6 +142,12 @@ pub fn target_from_parts(
     match pattern {
         "chessboard" => Chessboard::new(cols, rows, square)
             .map(Target::Chessboard)
+            .map_err(|e| (TargetPart::Size, e)),
+        "circles" => CircleGrid::new(cols, rows, square, CircleLayout::Symmetric)
+            .map(Target::Circles)
+            .map_err(|e| (TargetPart::Size, e)),
+        "acircles" => CircleGrid::new(cols, rows, square, CircleLayout::Asymmetric)
+            .map(Target::Acircles)
             .map_err(|e| (TargetPart::Size, e)),
         "charuco" => {
             let marker_size = marker_size.ok_or_else(|| {
@@ -178,7 +187,10 @@ pub fn target_from_parts(
         }
         other => Err(wrong(
             TargetPart::Pattern,
-            format!("unsupported pattern {other:?}: expected chessboard or charuco"),
+            format!(
+                "unsupported pattern {other:?}: expected chessboard, charuco, circles or \
+                 acircles"
+            ),
         )),
     }
 }
@@ -269,6 +281,25 @@ mod tests {
     }
 
     #[test]
+    fn ros_style_circle_grids() {
+        let target = parse_pattern_args([
+            "--pattern",
+            "acircles",
+            "--size",
+            "4x11",
+            "--square",
+            "0.02",
+        ])
+        .unwrap();
+        assert_eq!(
+            target,
+            Target::Acircles(CircleGrid::new(4, 11, 0.02, CircleLayout::Asymmetric).unwrap())
+        );
+        let target = parse_pattern_args(["-p", "circles", "-s", "7x5", "-q", "0.03"]).unwrap();
+        assert_eq!(target.object_points().len(), 35);
+    }
+
+    #[test]
     fn bad_command_lines_say_what_is_wrong() {
         for (args, needle) in [
             (vec!["--size", "9by6", "--square", "0.025"], "COLSxROWS"),
@@ -276,8 +307,25 @@ mod tests {
             (vec!["--size", "9x6", "--square", "-2"], "positive"),
             (vec!["--size", "9x6", "--square"], "needs a value"),
             (
-                vec!["--pattern", "circles", "--size", "9x6", "--square", "0.02"],
-                "circles",
+                vec!["--pattern", "dots", "--size", "9x6", "--square", "0.02"],
+                "dots",
+            ),
+            (
+                vec!["--pattern", "acircles", "--size", "4x2", "--square", "0.02"],
+                "3 rows",
+            ),
+            (
+                vec![
+                    "--pattern",
+                    "circles",
+                    "-s",
+                    "4x5",
+                    "-q",
+                    "0.02",
+                    "-m",
+                    "0.01",
+                ],
+                "only apply to --pattern charuco",
             ),
             (
                 vec!["--size", "9x6", "--square", "0.02", "--fps", "3"],
@@ -297,7 +345,8 @@ mod tests {
     #[test]
     fn target_errors_name_the_wrong_part() {
         for (pattern, size, square, marker, dictionary, part) in [
-            ("circles", (9, 6), 0.02, None, None, TargetPart::Pattern),
+            ("dots", (9, 6), 0.02, None, None, TargetPart::Pattern),
+            ("acircles", (1, 6), 0.02, None, None, TargetPart::Size),
             ("chessboard", (1, 6), 0.02, None, None, TargetPart::Size),
             ("charuco", (2, 5), 0.04, Some(0.03), None, TargetPart::Size),
             ("chessboard", (9, 6), -1.0, None, None, TargetPart::Square),

@@ -1,9 +1,10 @@
 //! Calibration target definitions, as read from `config/boards/*.yaml`, and their
-//! corners in the target frame.
+//! points (corners, or circle centres) in the target frame.
 //!
-//! Target frame (OpenCV's object points): origin at the first inner corner, x along a
-//! row of corners, y down the columns, z into the board. Inner corner `(i, j)` lies at
-//! `(i * square_size, j * square_size, 0)` and has id `j * cols + i`.
+//! Target frame (OpenCV's object points): origin at the first inner corner (or circle),
+//! x along a row, y down the columns, z into the board. Inner corner `(i, j)` lies at
+//! `(i * square_size, j * square_size, 0)` and has id `j * cols + i`; circle grids
+//! follow OpenCV's `calibration.cpp` sample (see [`CircleGrid`]).
 
 use std::path::Path;
 
@@ -20,7 +21,55 @@ pub enum Target {
     Chessboard(Chessboard),
     /// A ChArUco board: a chessboard with ArUco markers in its white squares.
     Charuco(Charuco),
+    /// A symmetric grid of dark circles (OpenCV's `CALIB_CB_SYMMETRIC_GRID`).
+    Circles(CircleGrid),
+    /// An asymmetric grid of dark circles (OpenCV's `CALIB_CB_ASYMMETRIC_GRID`):
+    /// every other row shifted by half the pitch of a row.
+    Acircles(CircleGrid),
 }
+
+/// The two layouts of a circle grid.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CircleLayout {
+    /// Rows and columns `spacing` apart.
+    Symmetric,
+    /// Circles `2 * spacing` apart along a row, rows `spacing` apart, odd rows shifted
+    /// by `spacing`.
+    Asymmetric,
+}
+
+/// A grid of `cols x rows` dark circles on a light board, sized as ROS
+/// camera_calibration and OpenCV size them: `cols` circles per row, `rows` rows, and
+/// `spacing` (camera_calibration's `--square`) the unit of their positions.
+///
+/// Circle `(i, j)` (column `i`, row `j`) has id `j * cols + i` and lies at
+/// `(i * spacing, j * spacing, 0)` in a symmetric grid, at
+/// `((2 i + j % 2) * spacing, j * spacing, 0)` in an asymmetric one, OpenCV's object
+/// points for both. An asymmetric grid with an odd number of rows (OpenCV's 4x11) looks
+/// different turned half round, so its first circle is always the same one; a
+/// symmetric grid, or an asymmetric one with an even number of rows, looks the same,
+/// and the detector takes the first circle to be the one with the board's x axis
+/// pointing most to the image's right.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CircleGrid {
+    /// Circles per row (along x).
+    pub cols: usize,
+    /// Rows of circles (along y).
+    pub rows: usize,
+    /// Unit of the circles' positions, metres: the distance between neighbouring
+    /// circles of a symmetric grid; half the distance between neighbouring circles
+    /// of a row of an asymmetric one.
+    pub spacing: f64,
+    /// Diameter of a circle, metres; [`DEFAULT_DIAMETER_RATIO`] times `spacing` (the
+    /// default of OpenCV's `gen_pattern.py`) when not given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub circle_diameter: Option<f64>,
+}
+
+/// A circle's diameter as a fraction of the grid's spacing when the target does not
+/// give it: OpenCV's `gen_pattern.py` draws circles of radius `spacing / 5`.
+pub const DEFAULT_DIAMETER_RATIO: f64 = 0.4;
 
 /// A chessboard of `cols x rows` inner corners (`(cols + 1) x (rows + 1)` squares).
 ///
@@ -240,6 +289,93 @@ impl Charuco {
     }
 }
 
+impl CircleGrid {
+    /// A grid of `cols x rows` circles `spacing` metres apart (see [`CircleGrid`]),
+    /// of the default diameter.
+    pub fn new(
+        cols: usize,
+        rows: usize,
+        spacing: f64,
+        layout: CircleLayout,
+    ) -> Result<Self, BoardError> {
+        let grid = Self {
+            cols,
+            rows,
+            spacing,
+            circle_diameter: None,
+        };
+        grid.validate(layout)?;
+        Ok(grid)
+    }
+
+    /// Checks the dimensions: at least 2x2 circles (3x3 in all for an asymmetric grid,
+    /// whose shifted rows need a neighbour), a positive spacing, and circles that do
+    /// not touch their neighbours.
+    pub fn validate(&self, layout: CircleLayout) -> Result<(), BoardError> {
+        if self.cols < 2 || self.rows < 2 {
+            return Err(BoardError::InvalidTarget(format!(
+                "a circle grid needs at least 2x2 circles, got {}x{}",
+                self.cols, self.rows
+            )));
+        }
+        if layout == CircleLayout::Asymmetric && self.rows < 3 {
+            return Err(BoardError::InvalidTarget(format!(
+                "an asymmetric circle grid needs at least 3 rows, got {}x{}",
+                self.cols, self.rows
+            )));
+        }
+        check_size("spacing", self.spacing)?;
+        if let Some(diameter) = self.circle_diameter {
+            check_size("circle_diameter", diameter)?;
+        }
+        let nearest = self.neighbour_distance(layout);
+        if self.diameter() >= nearest {
+            return Err(BoardError::InvalidTarget(format!(
+                "circles of {} m diameter touch their neighbours {nearest} m away",
+                self.diameter()
+            )));
+        }
+        Ok(())
+    }
+
+    /// Diameter of a circle, metres.
+    pub fn diameter(&self) -> f64 {
+        self.circle_diameter
+            .unwrap_or(DEFAULT_DIAMETER_RATIO * self.spacing)
+    }
+
+    /// Distance between a circle's centre and its nearest neighbour's, metres.
+    pub fn neighbour_distance(&self, layout: CircleLayout) -> f64 {
+        match layout {
+            CircleLayout::Symmetric => self.spacing,
+            CircleLayout::Asymmetric => self.spacing * std::f64::consts::SQRT_2,
+        }
+    }
+
+    /// Number of circles.
+    pub fn circle_count(&self) -> usize {
+        self.cols * self.rows
+    }
+
+    /// Circle centres in the target frame, by id (row after row).
+    pub fn object_points(&self, layout: CircleLayout) -> Vec<Point3<f64>> {
+        match layout {
+            CircleLayout::Symmetric => grid_points(self.cols, self.rows, self.spacing),
+            CircleLayout::Asymmetric => (0..self.rows)
+                .flat_map(|j| {
+                    (0..self.cols).map(move |i| {
+                        Point3::new(
+                            (2 * i + j % 2) as f64 * self.spacing,
+                            j as f64 * self.spacing,
+                            0.0,
+                        )
+                    })
+                })
+                .collect(),
+        }
+    }
+}
+
 impl Target {
     /// Reads a target from a YAML file (`config/boards/*.yaml`) and validates it.
     pub fn from_yaml_file(path: &Path) -> Result<Self, BoardError> {
@@ -273,22 +409,47 @@ impl Target {
         match self {
             Self::Chessboard(board) => board.validate(),
             Self::Charuco(board) => board.validate(),
+            Self::Circles(grid) => grid.validate(CircleLayout::Symmetric),
+            Self::Acircles(grid) => grid.validate(CircleLayout::Asymmetric),
         }
     }
 
-    /// Corners in the target frame, by id.
+    /// Corners (or circle centres) in the target frame, by id.
     pub fn object_points(&self) -> Vec<Point3<f64>> {
         match self {
             Self::Chessboard(board) => board.object_points(),
             Self::Charuco(board) => board.object_points(),
+            Self::Circles(grid) => grid.object_points(CircleLayout::Symmetric),
+            Self::Acircles(grid) => grid.object_points(CircleLayout::Asymmetric),
         }
     }
 
-    /// Side of one square, metres.
+    /// Side of one square (a circle grid's spacing), metres.
     pub fn square_size(&self) -> f64 {
         match self {
             Self::Chessboard(board) => board.square_size,
             Self::Charuco(board) => board.square_size,
+            Self::Circles(grid) | Self::Acircles(grid) => grid.spacing,
+        }
+    }
+
+    /// The circle grid and its layout, for a circle-grid target.
+    pub fn circle_grid(&self) -> Option<(&CircleGrid, CircleLayout)> {
+        match self {
+            Self::Circles(grid) => Some((grid, CircleLayout::Symmetric)),
+            Self::Acircles(grid) => Some((grid, CircleLayout::Asymmetric)),
+            Self::Chessboard(_) | Self::Charuco(_) => None,
+        }
+    }
+
+    /// A short description for messages: `9x6 chessboard`, `4x11 asymmetric circle
+    /// grid`.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Chessboard(b) => format!("{}x{} chessboard", b.cols, b.rows),
+            Self::Charuco(b) => format!("{}x{} ChArUco board", b.squares_x, b.squares_y),
+            Self::Circles(g) => format!("{}x{} circle grid", g.cols, g.rows),
+            Self::Acircles(g) => format!("{}x{} asymmetric circle grid", g.cols, g.rows),
         }
     }
 }
@@ -350,11 +511,37 @@ mod tests {
             "pattern: chessboard\ncols: 9\nrows: 6\nsquare_size: -1\n",
             "pattern: chessboard\ncols: 9\nrows: 6\nsquare: 0.025\n",
             "pattern: circles\ncols: 9\nrows: 6\nsquare_size: 0.025\n",
+            "pattern: acircles\ncols: 4\nrows: 2\nspacing: 0.02\n",
+            "pattern: circles\ncols: 4\nrows: 5\nspacing: 0.02\ncircle_diameter: 0.02\n",
             "pattern: charuco\nsquares_x: 7\nsquares_y: 5\nsquare_size: 0.04\n\
              marker_size: 0.05\ndictionary: DICT_5X5_100\n",
         ] {
             assert!(Target::from_yaml_str(bad).is_err(), "accepted {bad:?}");
         }
+    }
+
+    #[test]
+    fn circle_grids_follow_opencv_object_points() {
+        let text = "pattern: acircles\ncols: 4\nrows: 11\nspacing: 0.02\n";
+        let target = Target::from_yaml_str(text).unwrap();
+        let Target::Acircles(grid) = target else {
+            panic!("not an asymmetric grid");
+        };
+        assert_eq!(grid.diameter(), 0.4 * 0.02);
+        // OpenCV's sample: Point3f((2 * j + i % 2) * squareSize, i * squareSize, 0),
+        // i the row and j the column.
+        let points = target.object_points();
+        assert_eq!(points.len(), 44);
+        assert_eq!(points[1], Point3::new(0.04, 0.0, 0.0));
+        assert_eq!(points[4], Point3::new(0.02, 0.02, 0.0));
+        assert_eq!(points[43], Point3::new(0.12, 0.2, 0.0));
+        let symmetric =
+            Target::Circles(CircleGrid::new(4, 3, 0.03, CircleLayout::Symmetric).unwrap());
+        assert_eq!(symmetric.object_points()[5], Point3::new(0.03, 0.03, 0.0));
+        assert_eq!(
+            Target::from_yaml_str(&symmetric.to_yaml_string().unwrap()).unwrap(),
+            symmetric
+        );
     }
 
     #[test]

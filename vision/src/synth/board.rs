@@ -1,12 +1,13 @@
-//! The calibration target: a chessboard, or a ChArUco board (a chessboard with ArUco
-//! markers in its white squares); geometry in the target frame and its regions.
+//! The calibration target: a chessboard, a ChArUco board (a chessboard with ArUco
+//! markers in its white squares), or a grid of dark circles; geometry in the target
+//! frame and its regions.
 
 use calib_targets_charuco::builtins::builtin_dictionary;
 use nalgebra::{Point2, Point3};
 use serde::{Deserialize, Serialize};
 
 use super::SynthError;
-use crate::board::{ArucoDictionary, Target};
+use crate::board::{ArucoDictionary, CircleGrid, CircleLayout, Target};
 
 /// A printed chessboard with a white margin around its squares.
 ///
@@ -15,7 +16,9 @@ use crate::board::{ArucoDictionary, Target};
 /// `(i * square_size, j * square_size, 0)`. The squares span
 /// `[-square_size, cols * square_size] x [-square_size, rows * square_size]`; the
 /// square touching the origin on its `-x, -y` side is black. With `markers` it is a
-/// ChArUco board laid out as OpenCV's `CharucoBoard`.
+/// ChArUco board laid out as OpenCV's `CharucoBoard`. With `circles` it is a circle
+/// grid instead: `cols x rows` circles, `square_size` their spacing, on a white board
+/// reaching one spacing and the margin beyond the outer circles' centres.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Chessboard {
     /// Inner corners along x (per row).
@@ -33,6 +36,44 @@ pub struct Chessboard {
     /// ArUco markers in the white squares (a ChArUco board); none on a chessboard.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub markers: Option<CharucoMarkers>,
+    /// Dark circles instead of squares (a circle grid).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub circles: Option<Circles>,
+}
+
+/// The circles of a circle grid, as [`CircleGrid`] places them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Circles {
+    /// Symmetric or asymmetric.
+    #[serde(with = "layout_name")]
+    pub layout: CircleLayout,
+    /// Diameter, metres.
+    #[serde(rename = "diameter_m")]
+    pub diameter: f64,
+}
+
+/// A circle layout in truth files: `circles` or `acircles`, the target's pattern name.
+mod layout_name {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    use crate::board::CircleLayout;
+
+    pub fn serialize<S: Serializer>(layout: &CircleLayout, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(match layout {
+            CircleLayout::Symmetric => "circles",
+            CircleLayout::Asymmetric => "acircles",
+        })
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<CircleLayout, D::Error> {
+        match String::deserialize(d)?.as_str() {
+            "circles" => Ok(CircleLayout::Symmetric),
+            "acircles" => Ok(CircleLayout::Asymmetric),
+            other => Err(serde::de::Error::custom(format!(
+                "unknown circle layout {other:?}: expected circles or acircles"
+            ))),
+        }
+    }
 }
 
 /// The ArUco markers of a ChArUco board, as OpenCV's `CharucoBoard` draws them: one
@@ -134,6 +175,12 @@ pub(crate) enum Region {
     /// A square, by its indices along x and y (the square `(i, j)` spans
     /// `[i, i + 1] x [j, j + 1]` squares).
     Square(i32, i32),
+    /// Inside a circle of a circle grid (black).
+    Disc(u32),
+    /// The white rim around a circle, up to half its radius from its edge: a pixel
+    /// seeing only rim may still see the circle between its corners, so it is never
+    /// shaded from its corners alone.
+    Rim(u32),
     /// A cell of the marker in square `square`: `cell` counts cells along x and y
     /// from the marker's top-left, its black border included.
     MarkerCell {
@@ -152,8 +199,14 @@ impl Region {
         match self {
             Region::Square(i, j) => (i + j).rem_euclid(2) == 0,
             Region::MarkerCell { black, .. } => black,
-            Region::Off | Region::Margin => false,
+            Region::Disc(_) => true,
+            Region::Off | Region::Margin | Region::Rim(_) => false,
         }
+    }
+
+    /// Whether a pixel whose corners all see this region must still be sampled inside.
+    pub(crate) fn needs_samples(self) -> bool {
+        matches!(self, Region::Rim(_))
     }
 }
 
@@ -182,7 +235,24 @@ impl Chessboard {
             square_size,
             margin,
             markers: None,
+            circles: None,
         })
+    }
+
+    /// A circle grid (see [`CircleGrid`]) on a board with a white `margin`.
+    pub fn circle_grid(
+        grid: &CircleGrid,
+        layout: CircleLayout,
+        margin: f64,
+    ) -> Result<Self, SynthError> {
+        let board = Self {
+            circles: Some(Circles {
+                layout,
+                diameter: grid.diameter(),
+            }),
+            ..Self::new(grid.cols, grid.rows, grid.spacing, margin)?
+        };
+        board.checked()
     }
 
     /// A ChArUco board of `cols x rows` inner corners (`(cols + 1) x (rows + 1)`
@@ -216,6 +286,10 @@ impl Chessboard {
                 board.square_size,
                 CharucoMarkers::new(board.marker_size, board.dictionary)?,
             ),
+            Target::Circles(grid) => Self::circle_grid(grid, CircleLayout::Symmetric, grid.spacing),
+            Target::Acircles(grid) => {
+                Self::circle_grid(grid, CircleLayout::Asymmetric, grid.spacing)
+            }
         }
     }
 
@@ -224,8 +298,23 @@ impl Chessboard {
     pub fn checked(&self) -> Result<Self, SynthError> {
         let board = Self {
             markers: self.markers,
+            circles: self.circles,
             ..Self::new(self.cols, self.rows, self.square_size, self.margin)?
         };
+        if let Some(circles) = &board.circles {
+            let grid = CircleGrid {
+                cols: self.cols,
+                rows: self.rows,
+                spacing: self.square_size,
+                circle_diameter: Some(circles.diameter),
+            };
+            if board.markers.is_some() || grid.validate(circles.layout).is_err() {
+                return Err(SynthError::InvalidCircles {
+                    diameter: circles.diameter,
+                    spacing: self.square_size,
+                });
+            }
+        }
         if let Some(markers) = &board.markers {
             let white_squares = ((self.cols + 1) * (self.rows + 1)) / 2;
             if markers.marker_size >= self.square_size || markers.codes.len() < white_squares {
@@ -243,9 +332,12 @@ impl Chessboard {
         self.cols * self.rows
     }
 
-    /// Inner corners in the target frame, in OpenCV's order: row after row
-    /// (`j` outer, `i` inner).
+    /// Inner corners (circle centres) in the target frame, in OpenCV's order: row after
+    /// row (`j` outer, `i` inner).
     pub fn corners(&self) -> Vec<Point3<f64>> {
+        if let Some(circles) = &self.circles {
+            return self.grid().object_points(circles.layout);
+        }
         (0..self.rows)
             .flat_map(|j| {
                 (0..self.cols).map(move |i| {
@@ -259,25 +351,52 @@ impl Chessboard {
             .collect()
     }
 
-    /// Centre of the grid of inner corners, in the target frame.
-    pub fn centre(&self) -> Point3<f64> {
-        Point3::new(
-            0.5 * (self.cols - 1) as f64 * self.square_size,
-            0.5 * (self.rows - 1) as f64 * self.square_size,
-            0.0,
+    /// The circle grid the board's dimensions describe (used only with `circles`).
+    fn grid(&self) -> CircleGrid {
+        CircleGrid {
+            cols: self.cols,
+            rows: self.rows,
+            spacing: self.square_size,
+            circle_diameter: self.circles.map(|c| c.diameter),
+        }
+    }
+
+    /// The largest `(x, y)` of an inner corner (circle centre), in the target frame.
+    fn last_corner(&self) -> Point2<f64> {
+        let columns = match self.circles {
+            Some(Circles {
+                layout: CircleLayout::Asymmetric,
+                ..
+            }) => 2 * self.cols - 1,
+            _ => self.cols - 1,
+        };
+        Point2::new(
+            columns as f64 * self.square_size,
+            (self.rows - 1) as f64 * self.square_size,
         )
+    }
+
+    /// Centre of the grid of inner corners (circle centres), in the target frame.
+    pub fn centre(&self) -> Point3<f64> {
+        let last = self.last_corner();
+        Point3::new(0.5 * last.x, 0.5 * last.y, 0.0)
+    }
+
+    /// Width of the squares (or of the circle grid's board without its margin) along x,
+    /// metres.
+    pub fn pattern_width(&self) -> f64 {
+        self.last_corner().x + 2.0 * self.square_size
     }
 
     /// Outer corners of the printed board (margin included) in the target frame:
     /// the minimum and maximum `(x, y)`.
     pub fn extent(&self) -> (Point2<f64>, Point2<f64>) {
         let lo = -self.square_size - self.margin;
+        let last = self.last_corner();
+        let reach = self.square_size + self.margin;
         (
             Point2::new(lo, lo),
-            Point2::new(
-                self.cols as f64 * self.square_size + self.margin,
-                self.rows as f64 * self.square_size + self.margin,
-            ),
+            Point2::new(last.x + reach, last.y + reach),
         )
     }
 
@@ -286,6 +405,9 @@ impl Chessboard {
         let (lo, hi) = self.extent();
         if !(x >= lo.x && x <= hi.x && y >= lo.y && y <= hi.y) {
             return Region::Off;
+        }
+        if let Some(circles) = &self.circles {
+            return self.circle_region(circles, x, y);
         }
         // Within the extent the square indices are small, so they fit an i64.
         let i = floor(x / self.square_size);
@@ -299,6 +421,40 @@ impl Chessboard {
                 .marker_region(markers, i as i32, j as i32, x, y)
                 .unwrap_or(square),
             _ => square,
+        }
+    }
+
+    /// What a circle grid shows at `(x, y)` (within the board): the nearest circle's
+    /// disc or rim, or the white margin.
+    fn circle_region(&self, circles: &Circles, x: f64, y: f64) -> Region {
+        let s = self.square_size;
+        let row = floor(y / s + 0.5);
+        let mut nearest: Option<(f64, u32)> = None;
+        for j in row - 1..=row + 1 {
+            if j < 0 || j >= self.rows as i64 {
+                continue;
+            }
+            let shift = match circles.layout {
+                CircleLayout::Symmetric => 0.0,
+                CircleLayout::Asymmetric => (j % 2) as f64,
+            };
+            let pitch = match circles.layout {
+                CircleLayout::Symmetric => 1.0,
+                CircleLayout::Asymmetric => 2.0,
+            };
+            let i = floor((x / s - shift) / pitch + 0.5).clamp(0, self.cols as i64 - 1);
+            let (cx, cy) = ((i as f64 * pitch + shift) * s, j as f64 * s);
+            let distance = ((x - cx).powi(2) + (y - cy).powi(2)).sqrt();
+            let id = (j as u64 * self.cols as u64 + i as u64) as u32;
+            if nearest.is_none_or(|(d, _)| distance < d) {
+                nearest = Some((distance, id));
+            }
+        }
+        let radius = 0.5 * circles.diameter;
+        match nearest {
+            Some((d, id)) if d <= radius => Region::Disc(id),
+            Some((d, id)) if d <= 1.5 * radius => Region::Rim(id),
+            _ => Region::Margin,
         }
     }
 

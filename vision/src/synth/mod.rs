@@ -1,4 +1,4 @@
-//! Synthetic scenes with exact ground truth: a chessboard or ChArUco target rendered through a
+//! Synthetic scenes with exact ground truth: a chessboard, ChArUco or circle-grid target rendered through a
 //! camera model (anti-aliased, with defocus, noise, vignetting, uneven light and a
 //! cluttered background), stereo rigs and robot-arm hand-eye sessions with bad frames
 //! on request, hand-eye sessions as detected corners without rendering (for noise
@@ -21,7 +21,7 @@ mod scene;
 mod truth;
 
 pub use background::Background;
-pub use board::{CharucoMarkers, Chessboard};
+pub use board::{CharucoMarkers, Chessboard, Circles};
 pub use corner_session::{CornerSession, CornerSessionSpec, corner_session, corner_session_camera};
 pub use photometry::Photometry;
 pub use poses::{Coverage, PoseRanges, PoseSampler};
@@ -67,6 +67,18 @@ pub enum SynthError {
         marker_size: f64,
         /// The dictionary.
         dictionary: &'static str,
+    },
+    /// A circle grid's circles are unusable.
+    #[error(
+        "invalid circle grid: circles of {diameter} m at a spacing of {spacing} m (expected \
+         a positive diameter smaller than the distance between neighbours, no markers, and \
+         at least 3 rows in an asymmetric grid)"
+    )]
+    InvalidCircles {
+        /// Circle diameter, metres.
+        diameter: f64,
+        /// Spacing, metres.
+        spacing: f64,
     },
     /// The image size is too small to hold a board.
     #[error("image size {width}x{height} is too small: expected at least 64x64")]

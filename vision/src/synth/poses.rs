@@ -128,7 +128,7 @@ impl<'a> PoseSampler<'a> {
         roll: f64,
     ) -> Option<Isometry3<f64>> {
         let ray = ray_through_pixel(camera, pixel)?.normalize();
-        let board_width = (self.board.cols + 1) as f64 * self.board.square_size;
+        let board_width = self.board.pattern_width();
         let distance = camera.intrinsics.fx * board_width / (fraction * f64::from(camera.width));
         // Facing the camera: target z along the ray (into the board), x as close to the
         // camera's x as the ray allows.

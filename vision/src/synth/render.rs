@@ -1,4 +1,4 @@
-//! Rendering of the chessboard target in front of the background through a camera
+//! Rendering of the target in front of the background through a camera
 //! model: anti-aliased geometry, then the photometric chain.
 
 use std::sync::Arc;
@@ -279,7 +279,8 @@ impl Renderer {
                         };
                         let uniform = h00.region == h10.region
                             && h00.region == h01.region
-                            && h00.region == h11.region;
+                            && h00.region == h11.region
+                            && !h00.region.needs_samples();
                         let colour = if uniform {
                             match h00.region {
                                 Region::Off => {

@@ -145,6 +145,7 @@ impl SceneSpec {
             square_size: square,
             margin: square,
             markers: None,
+            circles: None,
         };
         Self {
             kind,

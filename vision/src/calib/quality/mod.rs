@@ -21,11 +21,11 @@ pub use coverage::{
 };
 pub use motion::{MAX_INTERVAL, board_speed};
 pub use regions::RegionCoverage;
-pub use sharpness::{EdgeBlur, edge_blur};
+pub use sharpness::{EdgeBlur, circle_blur, edge_blur};
 
 use thiserror::Error;
 
-use crate::board::{Detection, Gray, Target};
+use crate::board::{CircleLayout, Detection, Gray, Target};
 
 /// Default [`FrameChecks::max_blur`]: edges wider than this (10-90 %, pixels) are
 /// refused. The 26 images of OpenCV's stereo sample measure 2.25-3.0 px, synth's sharp
@@ -38,32 +38,62 @@ pub const DEFAULT_MAX_BLUR: f64 = 5.0;
 /// blur rather than defocus.
 const MOTION_BLUR_RATIO: f64 = 1.6;
 
-/// The layout of a target's squares that [`edge_blur`] measures across.
+/// The layout of a target's edges that [`edge_blur`] or [`circle_blur`] measures
+/// across.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EdgeLayout {
-    /// Inner corners per row.
-    pub cols: usize,
-    /// Inner corners per column.
-    pub rows: usize,
-    /// Fraction of a white square's side, from each edge, free of markers: 0.5 on a
-    /// chessboard, `(square - marker) / (2 square)` on a ChArUco board.
-    pub clear: f64,
+pub enum EdgeLayout {
+    /// The squares of a chessboard or ChArUco board.
+    Squares {
+        /// Inner corners per row.
+        cols: usize,
+        /// Inner corners per column.
+        rows: usize,
+        /// Fraction of a white square's side, from each edge, free of markers: 0.5 on
+        /// a chessboard, `(square - marker) / (2 square)` on a ChArUco board.
+        clear: f64,
+    },
+    /// The circles of a circle grid.
+    Circles {
+        /// Circles per row.
+        cols: usize,
+        /// Rows of circles.
+        rows: usize,
+        /// Layout of the grid.
+        layout: CircleLayout,
+    },
 }
 
 impl EdgeLayout {
     /// The layout of `target`.
     pub fn of(target: &Target) -> Self {
         match target {
-            Target::Chessboard(board) => Self {
+            Target::Chessboard(board) => Self::Squares {
                 cols: board.cols,
                 rows: board.rows,
                 clear: 0.5,
             },
-            Target::Charuco(board) => Self {
+            Target::Charuco(board) => Self::Squares {
                 cols: board.cols(),
                 rows: board.rows(),
                 clear: (board.square_size - board.marker_size) / (2.0 * board.square_size),
             },
+            Target::Circles(grid) => Self::Circles {
+                cols: grid.cols,
+                rows: grid.rows,
+                layout: CircleLayout::Symmetric,
+            },
+            Target::Acircles(grid) => Self::Circles {
+                cols: grid.cols,
+                rows: grid.rows,
+                layout: CircleLayout::Asymmetric,
+            },
+        }
+    }
+
+    /// The target's points per row and rows: `(cols, rows)` of its ids.
+    pub fn grid(&self) -> (usize, usize) {
+        match *self {
+            Self::Squares { cols, rows, .. } | Self::Circles { cols, rows, .. } => (cols, rows),
         }
     }
 }
@@ -151,7 +181,13 @@ impl FrameChecks {
         if self.max_blur <= 0.0 {
             return Ok(());
         }
-        match edge_blur(gray, detection, layout.cols, layout.rows, layout.clear) {
+        let blur = match *layout {
+            EdgeLayout::Squares { cols, rows, clear } => {
+                edge_blur(gray, detection, cols, rows, clear)
+            }
+            EdgeLayout::Circles { cols, layout, .. } => circle_blur(gray, detection, cols, layout),
+        };
+        match blur {
             Some(blur) if blur.width() > self.max_blur => Err(FrameRefusal::Blurred {
                 width: blur.width(),
                 limit: self.max_blur,

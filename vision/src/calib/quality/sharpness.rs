@@ -1,4 +1,4 @@
-//! How blurred a detected chessboard is: the 10-90 % width of its square edges, in
+//! How blurred a detected chessboard or circle grid is: the 10-90 % width of its square edges, in
 //! pixels, measured separately for the two families of edges so that motion blur (which
 //! widens only the edges across the motion) shows apart from defocus (which widens all).
 //!
@@ -10,7 +10,7 @@
 //! 10 % and 90 % of that rise. A sharp edge is one to three pixels wide (the lens and
 //! the sensor's pixels); a defocused or moving board widens it to many pixels.
 
-use crate::board::{Detection, Gray};
+use crate::board::{CircleLayout, Detection, Gray};
 use nalgebra::{Point2, Vector2};
 
 /// Step between samples along a profile, pixels.
@@ -176,6 +176,12 @@ fn edge_width(
     let profile = (-from_black..=to_white)
         .map(|k| level(normal_sign * k as f64 * STEP))
         .collect::<Option<Vec<f64>>>()?;
+    rise_width(&profile)
+}
+
+/// The 10-90 % width of the rise of `profile` (samples [`STEP`] apart, starting on the
+/// dark side), pixels; `None` for a rise below [`MIN_CONTRAST`].
+fn rise_width(profile: &[f64]) -> Option<f64> {
     let low = *profile.first()?;
     let high = profile.iter().copied().fold(f64::NEG_INFINITY, f64::max);
     let rise = high - low;
@@ -185,6 +191,57 @@ fn edge_width(
     let (from, to) = (low + 0.1 * rise, low + 0.9 * rise);
     let inside = profile.iter().filter(|&&v| v > from && v < to).count();
     Some(inside as f64 * STEP)
+}
+
+/// The edge widths of `detection`, a circle grid of `cols` circles per row in `layout`
+/// found in `gray` (centres in target order, every circle found): medians over the
+/// circles of the profiles along the board's y (`row_edges`) and x (`column_edges`).
+/// `None` when no circle's edge could be measured along one of them.
+pub fn circle_blur(
+    gray: &Gray,
+    detection: &Detection,
+    cols: usize,
+    layout: CircleLayout,
+) -> Option<EdgeBlur> {
+    let centres = &detection.corners;
+    // The circle one step along the board's y, and the nearest neighbour along a row.
+    let (below, nearest) = match layout {
+        CircleLayout::Symmetric => (cols, cols),
+        CircleLayout::Asymmetric => (2 * cols, cols),
+    };
+    let mut row_widths = Vec::new();
+    let mut column_widths = Vec::new();
+    for (id, centre) in centres.iter().enumerate() {
+        let along_x = (id % cols + 1 < cols).then(|| centres[id + 1] - centre);
+        let along_y = centres.get(id + below).map(|c| c - centre);
+        let neighbour = centres.get(id + nearest).map(|c| (c - centre).norm());
+        let (Some(x), Some(y), Some(neighbour)) = (along_x, along_y, neighbour) else {
+            continue;
+        };
+        let reach = 0.5 * neighbour.min(x.norm()).min(y.norm());
+        for (direction, widths) in [(x, &mut column_widths), (y, &mut row_widths)] {
+            let Some(unit) = direction.try_normalize(1e-9) else {
+                continue;
+            };
+            for sign in [1.0, -1.0] {
+                let profile = (0..=(reach / STEP).floor() as i64)
+                    .map(|k| {
+                        let p = centre + unit * (sign * k as f64 * STEP);
+                        gray.sample(p.x, p.y)
+                    })
+                    .collect::<Option<Vec<f64>>>();
+                if reach >= MIN_REACH
+                    && let Some(width) = profile.as_deref().and_then(rise_width)
+                {
+                    widths.push(width);
+                }
+            }
+        }
+    }
+    Some(EdgeBlur {
+        row_edges: median(&mut row_widths)?,
+        column_edges: median(&mut column_widths)?,
+    })
 }
 
 /// The median of `values` (the mean of the middle two for an even count); `None` when
