@@ -6,6 +6,11 @@
 //! Frames are identified by their header stamp; a stereo pair is a left and a right
 //! frame with exactly the same stamp. Frames where no board was found, and views the
 //! solvers reject, are reported with their stamp and the reason.
+//!
+//! A circle grid's centres are measured again once a camera is calibrated: what the
+//! detector gets wrong through that camera at each view's pose
+//! ([`circle_centre_errors`]) is taken out of the detected centres, and the camera is
+//! calibrated again, [`CIRCLE_ROUNDS`] times.
 
 use std::collections::BTreeMap;
 
@@ -14,7 +19,7 @@ use serde::Serialize;
 use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::sensor_msgs::CameraInfo;
 use stereocal_msgs::std_msgs::Header;
-use stereocal_vision::board::{Detection, Target};
+use stereocal_vision::board::{Detection, Target, circle_centre_errors};
 use stereocal_vision::calib::quality::RegionCoverage;
 use stereocal_vision::calib::{
     CalibError, MonoCalibration, MonoOptions, RejectedView, StereoCalibration, StereoOptions,
@@ -176,6 +181,78 @@ pub enum CalibrationStageError {
     Rectify(StereoRectifyError),
 }
 
+/// Rounds of measuring a circle grid's centres again through the calibrated camera.
+pub const CIRCLE_ROUNDS: usize = 2;
+
+/// Calibrates one camera of `target` from its frames with the distortion `model`
+/// ([`calibrate_camera`]); for a circle grid, again from its centres corrected through
+/// the calibration (see the module). Returns the frames the result was solved from.
+pub fn calibrate_target_camera(
+    camera: &CameraFrames,
+    model: DistortionModel,
+    target: &Target,
+) -> Result<(CameraFrames, CameraResult), CalibrationStageError> {
+    let mut result = calibrate_camera(camera, model)?;
+    if target.circle_grid().is_none() {
+        return Ok((camera.clone(), result));
+    }
+    let mut frames = camera.clone();
+    for _ in 0..CIRCLE_ROUNDS {
+        frames = recentred(camera, &result, target);
+        result = calibrate_camera(&frames, model)?;
+    }
+    Ok((frames, result))
+}
+
+/// `camera`'s frames with the circle centres of the views `result` used corrected by
+/// what the detector gets wrong through `result`'s camera at each view's pose.
+fn recentred(camera: &CameraFrames, result: &CameraResult, target: &Target) -> CameraFrames {
+    let points = target.object_points();
+    let poses: BTreeMap<Time, _> = result
+        .used
+        .iter()
+        .zip(&result.calibration.views)
+        .map(|(stamp, fit)| (*stamp, fit.camera_from_target))
+        .collect();
+    let model = &result.calibration.camera;
+    let frames = camera
+        .frames
+        .iter()
+        .map(|frame| {
+            let corners = match (&frame.corners, poses.get(&frame.stamp)) {
+                (FrameCorners::Found(view), Some(pose)) => {
+                    match circle_centre_errors(target, model, pose) {
+                        Some(errors) => FrameCorners::Found(View {
+                            points_in_target: view.points_in_target.clone(),
+                            pixels: view
+                                .points_in_target
+                                .iter()
+                                .zip(&view.pixels)
+                                .map(|(point, pixel)| {
+                                    points
+                                        .iter()
+                                        .position(|p| p == point)
+                                        .map_or(*pixel, |id| pixel - errors[id])
+                                })
+                                .collect(),
+                        }),
+                        None => frame.corners.clone(),
+                    }
+                }
+                _ => frame.corners.clone(),
+            };
+            Frame {
+                stamp: frame.stamp,
+                corners,
+            }
+        })
+        .collect();
+    CameraFrames {
+        frames,
+        ..camera.clone()
+    }
+}
+
 /// Calibrates one camera from its frames with the distortion `model`; its camera_info
 /// has `R = I` and `P = [K | 0]`.
 pub fn calibrate_camera(
@@ -238,16 +315,19 @@ pub fn calibrate_camera(
     })
 }
 
-/// Calibrates a stereo pair: each camera alone with the distortion `model`, then
+/// Calibrates a stereo pair of `target`: each camera alone with the distortion `model`
+/// ([`calibrate_target_camera`]), then
 /// `right_from_left` from the frames whose stamps match exactly and that both mono
 /// calibrations kept, then the rectification that fills each camera_info's R and P.
 pub fn calibrate_pair(
     left: &CameraFrames,
     right: &CameraFrames,
     model: DistortionModel,
+    target: &Target,
 ) -> Result<CalibrationOutcome, CalibrationStageError> {
-    let mut left_result = calibrate_camera(left, model)?;
-    let mut right_result = calibrate_camera(right, model)?;
+    let (left, mut left_result) = calibrate_target_camera(left, model, target)?;
+    let (right, mut right_result) = calibrate_target_camera(right, model, target)?;
+    let (left, right) = (&left, &right);
     let kept_views = |frames: &CameraFrames, result: &CameraResult| -> BTreeMap<Time, View> {
         frames
             .frames

@@ -22,7 +22,7 @@ use crate::calibrate::offline::{CameraTopic, judge_bag_frames};
 use crate::calibrate::report::{ReportInputs, read_sample, sample_stamp, write_report};
 use crate::calibrate::result::{CalibrationResult, row_major};
 use crate::calibrate::stage::{
-    CalibrationOutcome, RejectedFrame, calibrate_camera, calibrate_pair,
+    CalibrationOutcome, RejectedFrame, calibrate_pair, calibrate_target_camera,
 };
 
 /// Arguments of `stereocal calibrate`.
@@ -184,10 +184,10 @@ pub fn calibrate_bag(
     let frames = judge_bag_frames(&reader, &cameras, detector.as_ref(), &checks, progress)?;
     let outcome = match frames.as_slice() {
         [mono] => CalibrationOutcome {
-            cameras: vec![calibrate_camera(mono, args.model)?],
+            cameras: vec![calibrate_target_camera(mono, args.model, detector.target())?.1],
             stereo: None,
         },
-        [left, right] => calibrate_pair(left, right, args.model)?,
+        [left, right] => calibrate_pair(left, right, args.model, detector.target())?,
         _ => bail!("expected one or two cameras, got {}", frames.len()),
     };
     let result = CalibrationResult::from_outcome(&outcome);

@@ -2,15 +2,18 @@
 //! stereocal's detectors with other implementations (`interop/check_charuco_opencv.py`).
 //!
 //! ```text
-//! cargo run --release -p stereocal-vision --example detect_target -- BOARD.yaml IMAGE.png...
+//! cargo run --release -p stereocal-vision --example detect_target -- [--repeats N] BOARD.yaml IMAGE.png...
 //! ```
 //!
 //! BOARD.yaml is a target definition (`config/boards/*.yaml`). One JSON line per image:
-//! `{"image": path, "ids": [..], "corners": [[x, y], ..]}` (pixel centres at integer
-//! coordinates), or `"ids": null` when the target was not found.
+//! `{"image": path, "ids": [..], "corners": [[x, y], ..], "seconds": t}` (pixel centres
+//! at integer coordinates), or `"ids": null` when the target was not found; `seconds`
+//! is the median over `--repeats` (default 1) detections of the decoded image, on the
+//! calling thread.
 
 use std::error::Error;
 use std::path::Path;
+use std::time::Instant;
 
 use serde_json::json;
 use stereocal_vision::board::{Target, detector_for};
@@ -31,20 +34,40 @@ fn read_png(path: &str) -> Result<Image> {
 }
 
 fn main() -> Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut repeats = 1usize;
+    if args.first().map(String::as_str) == Some("--repeats") {
+        repeats = args
+            .get(1)
+            .and_then(|n| n.parse().ok())
+            .filter(|&n| n > 0)
+            .ok_or("--repeats needs a positive count")?;
+        args.drain(..2);
+    }
     let Some((board, images)) = args.split_first() else {
-        return Err("usage: detect_target BOARD.yaml IMAGE.png...".into());
+        return Err("usage: detect_target [--repeats N] BOARD.yaml IMAGE.png...".into());
     };
     let target = Target::from_yaml_file(Path::new(board))?;
     let detector = detector_for(&target)?;
     for path in images {
-        let line = match detector.detect(&read_png(path)?)? {
+        let image = read_png(path)?;
+        let mut times = Vec::with_capacity(repeats);
+        let mut found = None;
+        for _ in 0..repeats {
+            let start = Instant::now();
+            found = detector.detect(&image)?;
+            times.push(start.elapsed().as_secs_f64());
+        }
+        times.sort_by(f64::total_cmp);
+        let seconds = times[times.len() / 2];
+        let line = match found {
             Some(found) => json!({
                 "image": path,
                 "ids": found.ids,
                 "corners": found.corners.iter().map(|p| [p.x, p.y]).collect::<Vec<_>>(),
+                "seconds": seconds,
             }),
-            None => json!({"image": path, "ids": null, "corners": null}),
+            None => json!({"image": path, "ids": null, "corners": null, "seconds": seconds}),
         };
         println!("{line}");
     }

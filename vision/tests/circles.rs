@@ -8,7 +8,8 @@ use crate::common;
 use common::render::Scene;
 use nalgebra::{Isometry3, Point2};
 use stereocal_vision::board::{
-    CircleGrid, CircleGridDetector, CircleGridMiss, CircleLayout, Detection, Target, detector_for,
+    CircleGrid, CircleGridDetector, CircleGridMiss, CircleLayout, Detection, Target,
+    circle_centre_errors, detector_for,
 };
 use stereocal_vision::camera::DistortionModel;
 use stereocal_vision::image::{Image, Samples};
@@ -92,6 +93,49 @@ fn clean_views_give_every_centre_within_three_hundredths_median() {
             );
             assert!(median <= 0.03, "{model:?}: median error {median} px");
         }
+    }
+}
+
+#[test]
+fn the_errors_predicted_through_the_lens_take_out_what_the_detector_leaves() {
+    // A fisheye lens bends a circle's image beyond the detector's second-order model
+    // near the image border; knowing the camera and the pose, as a calibration does,
+    // predicts what is left.
+    for (t, target) in targets().iter().enumerate() {
+        let detector = detector_for(target).unwrap();
+        let scene = scene(
+            40 + (3 * t + 2) as u64,
+            DistortionModel::Equidistant,
+            target,
+            6,
+        );
+        let (mut before, mut after) = (Vec::new(), Vec::new());
+        for (index, pose) in scene.poses.iter().enumerate() {
+            let image = scene.render(pose, Photometry::ideal(), index as u64);
+            let detection = detector.detect(&image).unwrap().unwrap();
+            let predicted = circle_centre_errors(target, &scene.camera, pose).unwrap();
+            let corrected = Detection {
+                corners: detection
+                    .corners
+                    .iter()
+                    .zip(&predicted)
+                    .map(|(c, e)| c - e)
+                    .collect(),
+                ..detection.clone()
+            };
+            before.extend(errors(&scene, pose, &detection));
+            after.extend(errors(&scene, pose, &corrected));
+        }
+        let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max);
+        println!(
+            "{} through a fisheye: median {:.4} -> {:.4} px, max {:.4} -> {:.4} px",
+            target.describe(),
+            median(&before),
+            median(&after),
+            max(&before),
+            max(&after)
+        );
+        assert!(median(&after) < median(&before) && max(&after) < 0.5 * max(&before));
     }
 }
 

@@ -23,8 +23,8 @@ use stereocal_vision::image::Image;
 use thiserror::Error;
 
 use crate::calibrate::stage::{
-    CalibrationOutcome, CalibrationStageError, CameraFrames, Frame, FrameCorners, calibrate_camera,
-    calibrate_pair,
+    CalibrationOutcome, CalibrationStageError, CameraFrames, Frame, FrameCorners, calibrate_pair,
+    calibrate_target_camera,
 };
 
 pub use annotate::annotate;
@@ -494,13 +494,12 @@ impl CalibrationSession {
             })
             .collect();
         match frames.as_slice() {
-            [left, right] => calibrate_pair(left, right, self.config.model),
-            [camera] => {
-                calibrate_camera(camera, self.config.model).map(|result| CalibrationOutcome {
+            [left, right] => calibrate_pair(left, right, self.config.model, &self.config.target),
+            [camera] => calibrate_target_camera(camera, self.config.model, &self.config.target)
+                .map(|(_, result)| CalibrationOutcome {
                     cameras: vec![result],
                     stereo: None,
-                })
-            }
+                }),
             _ => Err(CalibrationStageError::NoBoardFound {
                 camera: self.config.cameras.join(", "),
                 frames: self.kept.len(),

@@ -18,7 +18,7 @@ mod target;
 
 pub use charuco::{CharucoDetector, MIN_CHARUCO_CORNERS};
 pub use chessboard::ChessboardDetector;
-pub use circles::{CircleGridDetector, CircleGridMiss};
+pub use circles::{CircleGridDetector, CircleGridMiss, circle_centre_errors};
 pub use detection::{Detection, TargetDetector};
 pub use gray::Gray;
 pub use pattern_args::{

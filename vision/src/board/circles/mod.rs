@@ -14,6 +14,7 @@ mod bias;
 mod blobs;
 mod conic;
 mod lattice;
+mod through_lens;
 
 use nalgebra::{Point2, Point3, Vector2};
 use thiserror::Error;
@@ -22,6 +23,7 @@ use self::bias::{LocalMap, centre_bias};
 use self::blobs::{Blob, dark_blobs};
 use self::conic::{Ellipse, fit_ellipse, refit};
 use self::lattice::{GridMatch, LatticeMiss, find_grid};
+pub use self::through_lens::circle_centre_errors;
 use super::detection::{Detection, TargetDetector};
 use super::target::{CircleGrid, CircleLayout, Target};
 use super::{BoardError, Gray};
@@ -102,15 +104,10 @@ impl CircleGridDetector {
             .enumerate()
             .map(|(id, e)| e.centre().ok_or(CircleGridMiss::Unlocated(id)))
             .collect::<Result<Vec<_>, _>>()?;
-        let plane: Vec<Point2<f64>> = self
-            .target
-            .object_points()
-            .iter()
-            .map(|p: &Point3<f64>| Point2::from(p.xy().coords / self.grid.spacing))
-            .collect();
+        let plane = board_plane(&self.target, self.grid.spacing);
         let mut centres = observed.clone();
         for _ in 0..BIAS_ROUNDS {
-            centres = self.corrected(&grid, &plane, &ellipses, &observed, &centres);
+            centres = self.corrected(&plane, &ellipses, &observed, &centres);
         }
         Ok(Detection {
             ids: (0..centres.len()).collect(),
@@ -120,46 +117,62 @@ impl CircleGridDetector {
     }
 
     /// Each circle's ellipse centre (`observed`) less its bias under the map fitted
-    /// to the current `centres` around it. A circle whose map cannot be fitted (a grid
-    /// of two rows) keeps its ellipse centre.
+    /// to the current `centres` around it. A circle whose map cannot be fitted keeps
+    /// its ellipse centre.
     fn corrected(
         &self,
-        grid: &GridMatch,
         plane: &[Point2<f64>],
         ellipses: &[Ellipse],
         observed: &[Point2<f64>],
         centres: &[Point2<f64>],
     ) -> Vec<Point2<f64>> {
-        let (cols, rows) = (self.grid.cols, self.grid.rows);
-        let maps: Vec<Option<LocalMap>> = grid
-            .cells
-            .iter()
-            .enumerate()
-            .map(|(id, &(column, row))| {
-                let columns =
-                    column.saturating_sub(LOCAL_REACH)..=(column + LOCAL_REACH).min(cols - 1);
-                let rows = row.saturating_sub(LOCAL_REACH)..=(row + LOCAL_REACH).min(rows - 1);
-                let near: Vec<usize> = rows
-                    .flat_map(|r| columns.clone().map(move |c| r * cols + c))
-                    .collect();
-                let board: Vec<Point2<f64>> = near
-                    .iter()
-                    .map(|&k| Point2::from(plane[k] - plane[id]))
-                    .collect();
-                let image: Vec<Point2<f64>> = near.iter().map(|&k| centres[k]).collect();
-                LocalMap::fit(&board, &image)
-            })
-            .collect();
+        let maps = local_maps(self.grid.cols, self.grid.rows, plane, centres);
         let radius = board_radius(ellipses, &maps);
-        (0..observed.len())
-            .map(|id| {
-                let bias = radius
-                    .zip(maps[id].as_ref())
-                    .and_then(|(r, map)| centre_bias(map, &Point2::origin(), r));
-                observed[id] - bias.unwrap_or_else(Vector2::zeros)
-            })
+        observed
+            .iter()
+            .zip(local_biases(&maps, radius))
+            .map(|(centre, bias)| centre - bias.unwrap_or_else(Vector2::zeros))
             .collect()
     }
+}
+
+/// The map from the board to the image around each circle, fitted to the `centres`
+/// of the circles within [`LOCAL_REACH`] rows and columns (`plane`: the circles'
+/// board positions in units of the spacing, by id).
+fn local_maps(
+    cols: usize,
+    rows: usize,
+    plane: &[Point2<f64>],
+    centres: &[Point2<f64>],
+) -> Vec<Option<LocalMap>> {
+    (0..plane.len())
+        .map(|id| {
+            let (column, row) = (id % cols, id / cols);
+            let columns = column.saturating_sub(LOCAL_REACH)..=(column + LOCAL_REACH).min(cols - 1);
+            let rows = row.saturating_sub(LOCAL_REACH)..=(row + LOCAL_REACH).min(rows - 1);
+            let near: Vec<usize> = rows
+                .flat_map(|r| columns.clone().map(move |c| r * cols + c))
+                .collect();
+            let board: Vec<Point2<f64>> = near
+                .iter()
+                .map(|&k| Point2::from(plane[k] - plane[id]))
+                .collect();
+            let image: Vec<Point2<f64>> = near.iter().map(|&k| centres[k]).collect();
+            LocalMap::fit(&board, &image)
+        })
+        .collect()
+}
+
+/// The bias of each circle's ellipse centre under its map, for circles of `radius`
+/// (units of the spacing); `None` where there is no map or no radius.
+fn local_biases(maps: &[Option<LocalMap>], radius: Option<f64>) -> Vec<Option<Vector2<f64>>> {
+    maps.iter()
+        .map(|map| {
+            radius
+                .zip(map.as_ref())
+                .and_then(|(r, map)| centre_bias(map, &Point2::origin(), r))
+        })
+        .collect()
 }
 
 /// The circles' radius on the board, in units of the spacing: the median over the
@@ -182,6 +195,15 @@ fn board_radius(ellipses: &[Ellipse], maps: &[Option<LocalMap>]) -> Option<f64> 
         .collect();
     radii.sort_by(f64::total_cmp);
     radii.get(radii.len() / 2).copied()
+}
+
+/// The target's circle centres on the board, in units of the spacing, by id.
+fn board_plane(target: &Target, spacing: f64) -> Vec<Point2<f64>> {
+    target
+        .object_points()
+        .iter()
+        .map(|p: &Point3<f64>| Point2::from(p.xy().coords / spacing))
+        .collect()
 }
 
 /// The circle's ellipse: fitted in the blob's window, then refitted in its own.
