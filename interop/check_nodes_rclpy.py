@@ -796,7 +796,7 @@ def calibrate_checks(checks, peer, rosout, c, pairs, truth, size):
     # The node reads every parameter once, at start-up: all are read-only.
     common_parameter_checks(
         checks, label, c.params, c.documented, read_only=list(c.documented),
-        constraints={"pattern": ["chessboard", "charuco"],
+        constraints={"pattern": ["chessboard", "charuco", "circles", "acircles"],
                      "model": ["plumb_bob", "rational_polynomial", "equidistant"]},
         refuse=["queue_size", "pattern"])
     describe_all_check(checks, label, c.params)
@@ -1081,7 +1081,7 @@ def pose_checks(checks, peer, rosout, p, session, frames):
     # The node reads every parameter once, at start-up: all are read-only.
     common_parameter_checks(
         checks, label, p.params, p.documented, read_only=list(p.documented),
-        constraints={"pattern": ["chessboard", "charuco"]},
+        constraints={"pattern": ["chessboard", "charuco", "circles", "acircles"]},
         refuse=["queue_size", "pattern", "target_frame"])
 
     with checks.check(label, "parameters: max_reprojection_error -1 (out of range) refused, "

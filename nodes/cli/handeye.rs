@@ -74,10 +74,11 @@ pub struct HandEyeArgs {
     /// the bag's `<ns>/camera_info`.
     #[arg(long = "camera-info")]
     pub camera_info: Option<PathBuf>,
-    /// Target kind, as ROS camera_calibration: chessboard or charuco.
+    /// Target kind, as ROS camera_calibration: chessboard, charuco, circles or acircles.
     #[arg(long, default_value = "chessboard")]
     pub pattern: String,
-    /// Inner corners of the chessboard, or squares of the ChArUco board, COLSxROWS.
+    /// Inner corners of the chessboard, squares of the ChArUco board, or circles per row
+    /// and rows of a circle grid, COLSxROWS.
     #[arg(long)]
     pub size: Option<String>,
     /// Side of one square, metres.

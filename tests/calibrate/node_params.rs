@@ -65,11 +65,11 @@ fn assert_refused(params: &[&str], expected: &[&str]) {
 #[test]
 fn an_unknown_pattern_is_refused_naming_the_choices() {
     assert_refused(
-        &["pattern:=circles", "size:=9x6", "square:=0.025"],
+        &["pattern:=dots", "size:=9x6", "square:=0.025"],
         &[
             "parameter pattern",
-            "\"circles\"",
-            "one of: chessboard, charuco",
+            "\"dots\"",
+            "one of: chessboard, charuco, circles, acircles",
         ],
     );
 }
@@ -205,7 +205,7 @@ fn every_parameter_is_described_in_one_response() {
         .expect("pattern");
     assert_eq!(
         pattern.additional_constraints,
-        "one of: chessboard, charuco"
+        "one of: chessboard, charuco, circles, acircles"
     );
     let exit = process.terminate();
     assert!(
