@@ -1,6 +1,6 @@
 //! The pose stage on rendered eye-in-hand frames: poses against ground truth for every
-//! lens model, ChArUco partial views, rectified input through P, and every kind of bad
-//! input answered with its reason.
+//! lens model, an asymmetric circle grid, ChArUco partial views, rectified input through P,
+//! and every kind of bad input answered with its reason.
 
 use stereocal::cli::synth::ModelArg;
 use stereocal::pose::stage::{PoseRejection, PoseStage};
@@ -78,6 +78,17 @@ fn chessboard_poses_match_truth_for_every_lens_model() {
             "{model:?}: a frame without a pose"
         );
     }
+}
+
+#[test]
+fn circle_grid_poses_match_truth() {
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("config/boards/acircles_4x11_20mm.yaml");
+    let target = Target::from_yaml_file(&file).unwrap();
+    let session = session(14, 6, ModelArg::PlumbBob, 0.0, Some(&target));
+    let stage = PoseStage::new(target, PoseOptions::default(), false).unwrap();
+    let found = assert_poses_near_truth(&session, &stage, 0.05, 0.5);
+    assert_eq!(found, session.frames.len(), "a frame without a pose");
 }
 
 #[test]
