@@ -30,6 +30,7 @@ mod triangulate;
 pub use consensus::{RobustMethod, RobustOptions};
 pub use error::GeometryError;
 pub use essential::{EssentialEstimate, decompose_essential, essential_5point, find_essential};
+pub(crate) use fundamental::svd3;
 pub use fundamental::{
     FundamentalEstimate, find_fundamental, fundamental_8point, sampson_distance,
 };
