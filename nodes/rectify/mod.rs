@@ -2,8 +2,10 @@
 //! `stereocal rectify` both hand frames to the [`stage`]; [`row_alignment`] measures on
 //! rectified pixels how well a stereo pair's rows agree, [`scene`] opens a synthetic
 //! stereo scene with its ground truth, and [`replay`] plays a bag through rectify nodes
-//! running as their own processes.
+//! running as their own processes. [`homography`] warps images for uncalibrated
+//! rectification.
 
+pub mod homography;
 pub mod node;
 pub mod replay;
 pub mod row_alignment;
