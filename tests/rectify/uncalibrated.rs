@@ -23,7 +23,7 @@ use stereocal_vision::board::{Chessboard, Target, TargetDetector, detector_for};
 /// Rows of a corner in the rectified left and right images must agree to this on every
 /// clean frame, pixels.
 const MAX_ROW_OFFSET_PX: f64 = 0.5;
-const FRAMES: usize = 4;
+const FRAMES: usize = 6;
 
 /// A verged, distortion-free pair in `dir/verged` (topics `/cam/{left,right}/image_raw`,
 /// no camera_info), made from a synthetic stereo session; and the session's scene.
@@ -32,7 +32,7 @@ fn verged_pair(dir: &Path) -> (PathBuf, StereoScene) {
     stereocal::cli::synth::run(&SynthArgs::new(
         SceneArg::Stereo,
         scene_dir.clone(),
-        3,
+        1,
         FRAMES,
     ))
     .expect("synth");
@@ -135,7 +135,7 @@ fn detector() -> Box<dyn TargetDetector + Send + Sync> {
 }
 
 fn corners(detector: &dyn TargetDetector, image: &ImageMsg) -> Option<Vec<Point2<f64>>> {
-    let image = image_from_msg(image).expect("decodable");
+    let (_, image) = image_from_msg(image).expect("decodable");
     detector
         .detect(&image)
         .expect("an image")
@@ -181,33 +181,46 @@ fn points_file(verged: &Path) -> String {
     text
 }
 
-fn assert_rows_align(out: &Path, scene: &StereoScene, what: &str) {
+/// Asserts that every frame whose verged pair shows the whole board (`seen`) shows it
+/// in both rectified images of `out`, with each corner's rows within
+/// [`MAX_ROW_OFFSET_PX`]; returns the largest row difference.
+fn assert_rows_align(out: &Path, seen: &[bool], what: &str) -> f64 {
     let left = images(out, "/cam/left/image_rect");
     let right = images(out, "/cam/right/image_rect");
     assert_eq!(left.len(), FRAMES, "{what}: every left frame rectified");
     assert_eq!(right.len(), FRAMES, "{what}: every right frame rectified");
-    assert_eq!(
-        scene.clean_frames(),
-        FRAMES,
-        "the session is all clean frames"
-    );
+    let mut worst_of_all = 0.0_f64;
     for (frame, worst) in worst_row_offsets(&left, &right).into_iter().enumerate() {
+        if !seen[frame] {
+            continue;
+        }
         let worst = worst.unwrap_or_else(|| panic!("{what}: frame {frame}: board not found"));
         assert!(
             worst <= MAX_ROW_OFFSET_PX,
             "{what}: frame {frame}: rows differ by up to {worst:.3} px"
         );
+        worst_of_all = worst_of_all.max(worst);
     }
+    worst_of_all
 }
 
 #[test]
 fn a_verged_pair_is_rectified_from_its_target_or_from_points() {
     let dir = tempfile::tempdir().expect("temp dir");
     let (verged, scene) = verged_pair(dir.path());
+    assert_eq!(
+        scene.clean_frames(),
+        FRAMES,
+        "the session is all clean frames"
+    );
     let before = worst_row_offsets(
         &images(&verged, "/cam/left/image_raw"),
         &images(&verged, "/cam/right/image_raw"),
     );
+    // Turning the cameras moves the board partly out of some views.
+    let seen: Vec<bool> = before.iter().map(Option::is_some).collect();
+    let pairs = seen.iter().filter(|&&s| s).count();
+    assert!(pairs >= 4, "the board is whole in {pairs} verged pairs");
     assert!(
         before.iter().flatten().any(|&w| w > 10.0),
         "the verged pair is far from rectified: {before:?}"
@@ -230,8 +243,12 @@ fn a_verged_pair_is_rectified_from_its_target_or_from_points() {
     ]);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
-    assert!(stderr.contains("in 4 stereo pairs"), "{stderr}");
-    assert_rows_align(&out, &scene, "from the target");
+    assert!(
+        stderr.contains(&format!("in {pairs} stereo pairs")),
+        "{stderr}"
+    );
+    let worst = assert_rows_align(&out, &seen, "from the target");
+    eprintln!("from the target: rows within {worst:.3} px");
 
     // The bag had no camera_info: an uncalibrated one (K zero) beside each image_rect.
     let reader = BagReader::open(&out).expect("output");
@@ -267,8 +284,12 @@ fn a_verged_pair_is_rectified_from_its_target_or_from_points() {
     ]);
     let stderr = String::from_utf8_lossy(&run.stderr);
     assert!(run.status.success(), "{stderr}");
-    assert!(stderr.contains("216 matched points"), "{stderr}");
-    assert_rows_align(&out, &scene, "from --points");
+    assert!(
+        stderr.contains(&format!("{} matched points", 54 * pairs)),
+        "{stderr}"
+    );
+    let worst = assert_rows_align(&out, &seen, "from --points");
+    eprintln!("from --points: rows within {worst:.3} px");
 }
 
 #[test]
@@ -297,17 +318,25 @@ fn bad_uncalibrated_input_is_refused_with_a_clear_message_and_no_output() {
         "--square",
         "0.04",
     ];
+    let wrong_size = [
+        "--pattern",
+        "chessboard",
+        "--size",
+        "7x5",
+        "--square",
+        "0.04",
+    ];
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (vec![], "--uncalibrated needs matched points"),
         (vec!["--points", &bad_line], "line 2"),
         (vec!["--points", &too_few], "too few correspondences"),
-        (vec!["--points", &on_a_line], "fundamental matrix"),
+        (vec!["--points", &on_a_line], "lie on one line"),
         ([&target[..], &["--threshold", "0"]].concat(), "threshold 0"),
         (
             [&target[..], &["--threshold", "-2"]].concat(),
             "threshold -2",
         ),
-        ([&target[..], &["--size", "7x5"]].concat(), "not found"),
+        (wrong_size.to_vec(), "not found"),
         (
             [
                 &target[..],

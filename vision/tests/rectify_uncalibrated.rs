@@ -8,7 +8,9 @@ use nalgebra::{Isometry3, Matrix3, Point2, Point3, Translation3, UnitQuaternion,
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use stereocal_vision::camera::{CameraModel, Distortion, Intrinsics};
-use stereocal_vision::geometry::{RobustOptions, find_fundamental, fundamental_8point};
+use stereocal_vision::geometry::{
+    GeometryError, RobustOptions, find_fundamental, fundamental_8point,
+};
 use stereocal_vision::rectify::{UncalibratedRectifyError, rectify_uncalibrated};
 
 const SIZE: (u32, u32) = (1024, 768);
@@ -367,6 +369,10 @@ fn points_on_one_line_are_refused() {
         .unzip();
     let e = rectify_uncalibrated(&line_left, &line_right, &f, SIZE, 1.0).unwrap_err();
     assert_eq!(e, UncalibratedRectifyError::Collinear { count: 20 });
+    assert!(e.to_string().contains("one line"), "{e}");
+    // Nor do they give the fundamental matrix to start from.
+    let e = find_fundamental(&line_left, &line_right, &RobustOptions::ransac(1.0)).unwrap_err();
+    assert!(matches!(e, GeometryError::Degenerate(_)), "{e}");
     assert!(e.to_string().contains("one line"), "{e}");
     // Three copies of one point are as undetermined.
     let same = vec![left[0]; 3];

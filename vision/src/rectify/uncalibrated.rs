@@ -17,7 +17,7 @@
 use nalgebra::{DMatrix, DVector, Matrix3, Point2, Vector3};
 use thiserror::Error;
 
-use crate::geometry::svd3;
+use crate::geometry::{collinear, svd3};
 
 /// Fewest correspondences the rectifying shear of the left image is solved from.
 pub const MIN_UNCALIBRATED_POINTS: usize = 3;
@@ -29,9 +29,6 @@ const RANK_TWO_TOLERANCE: f64 = 1e-6;
 const RANK_ONE_TOLERANCE: f64 = 1e-9;
 /// Sweeps of the SVD of the shear's least-squares system before it counts as failed.
 const SVD_MAX_ITERATIONS: usize = 1000;
-/// Ratio of the spread across to the spread along the left points below which they lie
-/// on one line.
-const COLLINEAR_RATIO: f64 = 1e-8;
 
 /// The two homographies of [`rectify_uncalibrated`], and which correspondences they
 /// were computed from.
@@ -402,23 +399,4 @@ fn keeps_image_finite(h: &Matrix3<f64>, (width, height): (u32, u32)) -> bool {
         .map(|&(x, y)| h[(2, 0)] * x + h[(2, 1)] * y + h[(2, 2)])
         .collect();
     w.iter().all(|&w| w > 0.0) || w.iter().all(|&w| w < 0.0)
-}
-
-/// Whether the points lie on one line (or coincide): their spread across their
-/// principal direction is below [`COLLINEAR_RATIO`] of their spread along it.
-fn collinear(points: &[Point2<f64>]) -> bool {
-    let n = points.len() as f64;
-    let mean_x = points.iter().map(|p| p.x).sum::<f64>() / n;
-    let mean_y = points.iter().map(|p| p.y).sum::<f64>() / n;
-    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
-    for p in points {
-        let (dx, dy) = (p.x - mean_x, p.y - mean_y);
-        sxx += dx * dx;
-        sxy += dx * dy;
-        syy += dy * dy;
-    }
-    let half_trace = 0.5 * (sxx + syy);
-    let root = (0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy).sqrt();
-    let (along, across) = (half_trace + root, (half_trace - root).max(0.0));
-    !(along > 0.0) || across.sqrt() <= COLLINEAR_RATIO * along.sqrt()
 }
