@@ -241,7 +241,7 @@ pub fn run(args: &RectifyArgs) -> anyhow::Result<()> {
 /// Runs `stereocal rectify --uncalibrated`.
 fn run_uncalibrated(args: &RectifyArgs) -> anyhow::Result<()> {
     // Refused before the bag is searched; the vision function refuses it too.
-    if !(args.threshold > 0.0) {
+    if args.threshold.is_nan() || args.threshold <= 0.0 {
         bail!(
             "--threshold {}: expected a distance above 0 px (matched points farther than it from their epipolar lines are left out)",
             args.threshold

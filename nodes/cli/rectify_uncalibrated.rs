@@ -41,13 +41,16 @@ use crate::rectify::homography::{HomographyWarper, uncalibrated_info};
 /// pixel.
 pub const FUNDAMENTAL_THRESHOLD_PX: f64 = 1.0;
 
+/// A left pixel and its match in the right image.
+pub type Match = (Point2<f64>, Point2<f64>);
+
 /// Where the matched points come from.
 #[derive(Debug, Clone)]
 pub enum MatchSource {
     /// Corners of this target found in left and right images of the same stamp.
     Target(Target),
     /// Matched pixels given by the caller: `(left, right)`.
-    Points(Vec<(Point2<f64>, Point2<f64>)>),
+    Points(Vec<Match>),
 }
 
 /// What [`rectify_bag_uncalibrated`] should do.
@@ -123,14 +126,14 @@ pub struct UncalibratedReport {
 /// Reads a `--points` file: one correspondence a line, `left_x left_y right_x
 /// right_y` in pixels (pixel centres at integer coordinates), separated by commas
 /// and/or white space; empty lines and lines starting with `#` are skipped.
-pub fn read_points_file(path: &Path) -> anyhow::Result<Vec<(Point2<f64>, Point2<f64>)>> {
+pub fn read_points_file(path: &Path) -> anyhow::Result<Vec<Match>> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     parse_points(&text).with_context(|| format!("--points {}", path.display()))
 }
 
 /// The correspondences of a `--points` file's text (see [`read_points_file`]).
-pub fn parse_points(text: &str) -> anyhow::Result<Vec<(Point2<f64>, Point2<f64>)>> {
+pub fn parse_points(text: &str) -> anyhow::Result<Vec<Match>> {
     let mut points = Vec::new();
     for (index, line) in text.lines().enumerate() {
         let line = line.trim();
@@ -177,17 +180,19 @@ pub fn rectify_bag_uncalibrated(
     let started = Instant::now();
     let reader = BagReader::open(input).with_context(|| format!("opening {}", input.display()))?;
     let cameras = choose_pair(&reader, options)?;
-    let (matches, pairs_matched, image_size) = match &options.source {
+    let matches = match &options.source {
         MatchSource::Target(target) => target_matches(&reader, &cameras, target, progress)?,
-        MatchSource::Points(points) => {
-            let size = pair_size(
+        MatchSource::Points(points) => Matches {
+            points: points.clone(),
+            pairs: 0,
+            image_size: pair_size(
                 first_image_size(&reader, &cameras[0])?,
                 first_image_size(&reader, &cameras[1])?,
-            )?;
-            (points.clone(), 0, size)
-        }
+            )?,
+        },
     };
-    let (left, right): (Vec<_>, Vec<_>) = matches.iter().copied().unzip();
+    let (image_size, pairs_matched) = (matches.image_size, matches.pairs);
+    let (left, right): (Vec<_>, Vec<_>) = matches.points.iter().copied().unzip();
     let estimate = find_fundamental(
         &left,
         &right,
@@ -260,7 +265,7 @@ pub fn print_summary(report: &UncalibratedReport) {
     };
     let (mean, max) = report.row_offset_px;
     eprintln!(
-        "uncalibrated rectification from {source}: F explains {}, {} used for the homographies; their rows after rectification differ by mean {mean:.3} px, max {max:.3} px",
+        "uncalibrated rectification from {source}: F explains {} of them; the {} within the threshold of their epipolar lines give the homographies, and their rows after rectification differ by mean {mean:.3} px, max {max:.3} px",
         report.fundamental_inliers, report.rectification.inlier_count
     );
     for (name, h) in [
@@ -341,6 +346,14 @@ fn choose_pair(
     Ok([camera("left", left)?, camera("right", right)?])
 }
 
+/// Matched points of a bag, and the size of its images.
+struct Matches {
+    points: Vec<Match>,
+    /// Stereo pairs they come from (0 for points given).
+    pairs: usize,
+    image_size: (u32, u32),
+}
+
 /// The target's corners matched between left and right images of the same stamp (by
 /// their point on the target), the number of pairs they come from, and the image size.
 fn target_matches(
@@ -348,7 +361,7 @@ fn target_matches(
     cameras: &[CameraTopic; 2],
     target: &Target,
     progress: &ProgressBar,
-) -> anyhow::Result<(Vec<(Point2<f64>, Point2<f64>)>, usize, (u32, u32))> {
+) -> anyhow::Result<Matches> {
     let detector = detector_for(target)?;
     progress.set_length(reader.topics_message_count(cameras.iter().map(|c| c.topic.as_str())));
     let frames = judge_bag_frames(
@@ -386,7 +399,11 @@ fn target_matches(
             cameras[1].topic
         );
     }
-    Ok((matches, pairs, size))
+    Ok(Matches {
+        points: matches,
+        pairs,
+        image_size: size,
+    })
 }
 
 type CornerView = Vec<(Point3<f64>, Point2<f64>)>;

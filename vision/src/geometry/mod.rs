@@ -94,7 +94,7 @@ pub(crate) fn collinear(points: &[Point2<f64>]) -> bool {
     let half_trace = 0.5 * (sxx + syy);
     let root = (0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy).sqrt();
     let (along, across) = (half_trace + root, (half_trace - root).max(0.0));
-    !(along > 0.0) || across.sqrt() <= COLLINEAR_RATIO * along.sqrt()
+    along.is_nan() || along <= 0.0 || across.sqrt() <= COLLINEAR_RATIO * along.sqrt()
 }
 
 /// Refuses correspondences whose points all lie on one line (or coincide) in either

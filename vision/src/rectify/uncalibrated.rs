@@ -86,16 +86,16 @@ pub enum UncalibratedRectifyError {
     /// Fewer correspondences than needed, before or after leaving out those off the
     /// epipolar geometry.
     #[error(
-        "{got} correspondences {within}, at least {needed} needed to solve for the rectification"
+        "{got} correspondences {counted}, at least {needed} needed to solve for the rectification"
     )]
     TooFewPoints {
         /// What was there.
         got: usize,
         /// The minimum, [`MIN_UNCALIBRATED_POINTS`].
         needed: usize,
-        /// Which ones were counted ("given", or "within the threshold of their
-        /// epipolar lines").
-        within: String,
+        /// Which ones were counted: those given, or those within the threshold of
+        /// their epipolar lines.
+        counted: String,
     },
     /// The left points used lie on one line (or coincide), so the rectifying shear is
     /// not determined.
@@ -171,7 +171,7 @@ pub fn rectify_uncalibrated(
         return Err(UncalibratedRectifyError::TooFewPoints {
             got: left.len(),
             needed: MIN_UNCALIBRATED_POINTS,
-            within: format!(
+            counted: format!(
                 "of {} lie within {threshold} px of their epipolar lines",
                 points_left.len()
             ),
@@ -237,8 +237,7 @@ fn check_inputs(
     (width, height): (u32, u32),
     threshold: f64,
 ) -> Result<(), UncalibratedRectifyError> {
-    // `!(x > 0)` also refuses NaN.
-    if !(threshold > 0.0) {
+    if threshold.is_nan() || threshold <= 0.0 {
         return Err(UncalibratedRectifyError::InvalidThreshold(threshold));
     }
     if width == 0 || height == 0 {
@@ -270,7 +269,7 @@ fn check_inputs(
         return Err(UncalibratedRectifyError::TooFewPoints {
             got: points_left.len(),
             needed: MIN_UNCALIBRATED_POINTS,
-            within: "given".to_owned(),
+            counted: "given".to_owned(),
         });
     }
     Ok(())
@@ -281,7 +280,7 @@ fn check_inputs(
 /// within [`RANK_TWO_TOLERANCE`].
 fn rank_two(f: &Matrix3<f64>) -> Result<(Matrix3<f64>, Matrix3<f64>), UncalibratedRectifyError> {
     let (u, s, v_t) = svd3(f).ok_or(UncalibratedRectifyError::NoSolution("the SVD of F failed"))?;
-    let rank = if !(s[0] > 0.0) {
+    let rank = if s[0].is_nan() || s[0] <= 0.0 {
         0
     } else if s[1] <= RANK_ONE_TOLERANCE * s[0] {
         1
