@@ -293,7 +293,10 @@ pub fn print_summary(report: &UncalibratedReport) {
     for s in &report.sides {
         let info = match &s.info_topic {
             Some(topic) => format!(", uncalibrated camera_info on {topic}"),
-            None => String::new(),
+            None => format!(
+                ", the bag's {}/camera_info copied (it describes the raw images, not these)",
+                namespace(&s.rect_topic)
+            ),
         };
         eprintln!(
             "  {} -> {}: {}/{} frames rectified{info}",
