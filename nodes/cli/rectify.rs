@@ -23,9 +23,10 @@ use super::calibrate::CharucoArgs;
 use super::image_topics::image_topics;
 use super::rectify_uncalibrated::{
     MatchSource, UncalibratedOptions, print_summary as print_uncalibrated_summary,
-    read_points_file, rectify_bag_uncalibrated,
+    rectify_bag_uncalibrated,
 };
 use crate::convert::{ImageKind, base_topic};
+use crate::rectify::matches::read_points_file;
 use crate::rectify::stage::{Rectified, Rectifier};
 use stereocal_rosbag::{
     BagReader, BagWriter, ChunkCompression, TopicFilter, TopicId, WriterOptions,

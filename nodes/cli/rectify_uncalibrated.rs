@@ -16,9 +16,8 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use indicatif::ProgressBar;
-use nalgebra::{Matrix3, Point2, Point3};
+use nalgebra::{Matrix3, Point2};
 use stereocal_msgs::RosMessage;
-use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_rosbag::{
@@ -32,17 +31,14 @@ use stereocal_vision::rectify::{RemapOptions, UncalibratedRectification, rectify
 use super::image_topics::{image_kind, image_topics};
 use super::rectify::{Problem, Problems, namespace};
 use crate::calibrate::offline::{CameraTopic, judge_bag_frames};
-use crate::calibrate::stage::{CameraFrames, FrameCorners};
 use crate::convert::{ImageKind, base_topic};
 use crate::rectify::homography::{HomographyWarper, uncalibrated_info};
+use crate::rectify::matches::{Match, frames_with_target, match_target_corners};
 
 /// Sampson distance, pixels, below which a correspondence supports a fundamental
 /// matrix in the RANSAC search: detected target corners are good to a fraction of a
 /// pixel.
 pub const FUNDAMENTAL_THRESHOLD_PX: f64 = 1.0;
-
-/// A left pixel and its match in the right image.
-pub type Match = (Point2<f64>, Point2<f64>);
 
 /// Where the matched points come from.
 #[derive(Debug, Clone)]
@@ -121,50 +117,6 @@ pub struct UncalibratedReport {
     pub damage: Option<String>,
     /// Wall time of the whole run.
     pub elapsed: Duration,
-}
-
-/// Reads a `--points` file: one correspondence a line, `left_x left_y right_x
-/// right_y` in pixels (pixel centres at integer coordinates), separated by commas
-/// and/or white space; empty lines and lines starting with `#` are skipped.
-pub fn read_points_file(path: &Path) -> anyhow::Result<Vec<Match>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    parse_points(&text).with_context(|| format!("--points {}", path.display()))
-}
-
-/// The correspondences of a `--points` file's text (see [`read_points_file`]).
-pub fn parse_points(text: &str) -> anyhow::Result<Vec<Match>> {
-    let mut points = Vec::new();
-    for (index, line) in text.lines().enumerate() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line
-            .split(|c: char| c == ',' || c.is_whitespace())
-            .filter(|f| !f.is_empty())
-            .collect();
-        let values: Vec<f64> = fields
-            .iter()
-            .map(|f| f.parse::<f64>())
-            .collect::<Result<_, _>>()
-            .ok()
-            .filter(|v: &Vec<f64>| v.len() == 4 && v.iter().all(|x| x.is_finite()))
-            .with_context(|| {
-                format!(
-                    "line {}: {line:?}: expected four finite numbers, left_x left_y right_x right_y",
-                    index + 1
-                )
-            })?;
-        points.push((
-            Point2::new(values[0], values[1]),
-            Point2::new(values[2], values[3]),
-        ));
-    }
-    if points.is_empty() {
-        bail!("no correspondences: expected lines of left_x left_y right_x right_y");
-    }
-    Ok(points)
 }
 
 /// Rectifies the stereo pair of the bag at `input` without calibration and writes
@@ -378,65 +330,21 @@ fn target_matches(
         bail!("expected frames of two cameras, got {}", frames.len());
     };
     let size = pair_size((left.width, left.height), (right.width, right.height))?;
-    let right_views = found_views(right);
-    let mut matches = Vec::new();
-    let mut pairs = 0;
-    for (stamp, left_view) in found_views(left) {
-        let Some(right_view) = right_views.get(&stamp) else {
-            continue;
-        };
-        let before = matches.len();
-        for (point, left_pixel) in &left_view {
-            if let Some((_, right_pixel)) = right_view.iter().find(|(p, _)| p == point) {
-                matches.push((*left_pixel, *right_pixel));
-            }
-        }
-        pairs += usize::from(matches.len() > before);
-    }
-    if pairs == 0 {
+    let matched = match_target_corners(left, right);
+    if matched.pairs == 0 {
         bail!(
             "the target was not found in a left and a right image of the same stamp ({} on {}, {} on {}): record both cameras with synchronized stamps and the whole target in view",
-            count_found(left),
+            frames_with_target(left),
             cameras[0].topic,
-            count_found(right),
+            frames_with_target(right),
             cameras[1].topic
         );
     }
     Ok(Matches {
-        points: matches,
-        pairs,
+        points: matched.points,
+        pairs: matched.pairs,
         image_size: size,
     })
-}
-
-type CornerView = Vec<(Point3<f64>, Point2<f64>)>;
-
-/// A camera's frames where the target was found: per stamp, each corner's target point
-/// and pixel.
-fn found_views(camera: &CameraFrames) -> BTreeMap<Time, CornerView> {
-    camera
-        .frames
-        .iter()
-        .filter_map(|f| match &f.corners {
-            FrameCorners::Found(view) => Some((
-                f.stamp,
-                view.points_in_target
-                    .iter()
-                    .copied()
-                    .zip(view.pixels.iter().copied())
-                    .collect(),
-            )),
-            FrameCorners::Unusable(_) => None,
-        })
-        .collect()
-}
-
-fn count_found(camera: &CameraFrames) -> usize {
-    camera
-        .frames
-        .iter()
-        .filter(|f| matches!(f.corners, FrameCorners::Found(_)))
-        .count()
 }
 
 /// The one size of both cameras' images.
