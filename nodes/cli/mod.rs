@@ -10,5 +10,6 @@ pub mod node;
 pub mod play;
 pub mod pose;
 pub mod rectify;
+pub mod rectify_uncalibrated;
 pub mod synth;
 pub mod synth_depth;

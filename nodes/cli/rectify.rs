@@ -1,5 +1,6 @@
 //! `stereocal rectify`: rectifies every image topic of a bag that has a camera_info and
-//! writes `<ns>/image_rect` beside copies of all input topics.
+//! writes `<ns>/image_rect` beside copies of all input topics; with `--uncalibrated`, a
+//! stereo pair without calibration ([`super::rectify_uncalibrated`]).
 //!
 //! The bag is streamed: a few frames per camera wait at most for their camera_info, so
 //! memory stays bounded whatever the bag's size. An image is paired with the camera_info
@@ -15,10 +16,17 @@ use stereocal_msgs::RosMessage;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
 use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
+use stereocal_vision::board::PatternArgs;
 use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
+use super::calibrate::CharucoArgs;
 use super::image_topics::image_topics;
+use super::rectify_uncalibrated::{
+    MatchSource, UncalibratedOptions, print_summary as print_uncalibrated_summary,
+    rectify_bag_uncalibrated,
+};
 use crate::convert::{ImageKind, base_topic};
+use crate::rectify::matches::read_points_file;
 use crate::rectify::stage::{Rectified, Rectifier};
 use stereocal_rosbag::{
     BagReader, BagWriter, ChunkCompression, TopicFilter, TopicId, WriterOptions,
@@ -43,8 +51,50 @@ pub struct RectifyArgs {
     /// Calibration for an image topic (or its `<ns>/camera_info` topic) from a
     /// camera_calibration_parsers YAML or INI file, used instead of the bag's
     /// camera_info. Repeatable.
-    #[arg(long = "camera-info", value_name = "TOPIC=FILE", value_parser = parse_camera_info_arg)]
+    #[arg(long = "camera-info", value_name = "TOPIC=FILE", value_parser = parse_camera_info_arg,
+          conflicts_with = "uncalibrated")]
     pub camera_info: Vec<(String, PathBuf)>,
+    /// Rectify a stereo pair without calibration (Hartley's method, as OpenCV's
+    /// stereoRectifyUncalibrated): homographies from the fundamental matrix of target
+    /// corners seen by both cameras (--pattern, --size, --square) or of --points.
+    #[arg(long)]
+    pub uncalibrated: bool,
+    /// With --uncalibrated: the left camera's image topic (default: the bag's image
+    /// topic with `left` in its name).
+    #[arg(long, requires = "uncalibrated")]
+    pub left: Option<String>,
+    /// With --uncalibrated: the right camera's image topic (default: the bag's image
+    /// topic with `right` in its name).
+    #[arg(long, requires = "uncalibrated")]
+    pub right: Option<String>,
+    /// With --uncalibrated: target kind, as ROS camera_calibration: chessboard or
+    /// charuco.
+    #[arg(long, requires = "uncalibrated", conflicts_with = "points")]
+    pub pattern: Option<String>,
+    /// With --uncalibrated: inner corners of the chessboard, or squares of the ChArUco
+    /// board, COLSxROWS (e.g. 9x6).
+    #[arg(long, requires = "uncalibrated", conflicts_with = "points")]
+    pub size: Option<String>,
+    /// With --uncalibrated: side of one square, metres.
+    #[arg(long, requires = "uncalibrated", conflicts_with = "points")]
+    pub square: Option<String>,
+    /// With --uncalibrated: the markers of a ChArUco board.
+    #[command(flatten)]
+    pub charuco: CharucoArgs,
+    /// With --uncalibrated: matched pixels instead of a target, one correspondence a
+    /// line: `left_x left_y right_x right_y` (commas or spaces; `#` starts a comment
+    /// line).
+    #[arg(long, requires = "uncalibrated")]
+    pub points: Option<PathBuf>,
+    /// With --uncalibrated: matched points farther than this from their epipolar line
+    /// in either image are left out of the rectification, pixels (OpenCV's default).
+    #[arg(
+        long,
+        default_value_t = 5.0,
+        requires = "uncalibrated",
+        allow_hyphen_values = true
+    )]
+    pub threshold: f64,
     /// Interpolation, as image_proc: 0 nearest, 1 linear, 2 cubic.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(i64).range(0..=2))]
     pub interpolation: i64,
@@ -148,6 +198,9 @@ impl BagRectifyReport {
 
 /// Runs `stereocal rectify`.
 pub fn run(args: &RectifyArgs) -> anyhow::Result<()> {
+    if args.uncalibrated {
+        return run_uncalibrated(args);
+    }
     let camera_infos = args
         .camera_info
         .iter()
@@ -177,6 +230,63 @@ pub fn run(args: &RectifyArgs) -> anyhow::Result<()> {
     let report = rectify_bag(&args.bag, &args.out, &options, &progress)?;
     progress.finish_and_clear();
     print_summary(&report);
+    if let Some(damage) = &report.damage {
+        bail!(
+            "the input bag is damaged ({damage}); {} holds everything before the damage",
+            report.output.display()
+        );
+    }
+    Ok(())
+}
+
+/// Runs `stereocal rectify --uncalibrated`.
+fn run_uncalibrated(args: &RectifyArgs) -> anyhow::Result<()> {
+    // Refused before the bag is searched; the vision function refuses it too.
+    if args.threshold.is_nan() || args.threshold <= 0.0 {
+        bail!(
+            "--threshold {}: expected a distance above 0 px (matched points farther than it from their epipolar lines are left out)",
+            args.threshold
+        );
+    }
+    let source = match (&args.points, &args.pattern, &args.size, &args.square) {
+        (Some(file), ..) => MatchSource::Points(read_points_file(file)?),
+        (None, pattern, Some(size), Some(square)) => MatchSource::Target(
+            PatternArgs {
+                pattern: Some(pattern.clone().unwrap_or_else(|| "chessboard".to_owned())),
+                size: Some(size.clone()),
+                square: Some(square.clone()),
+                marker_size: args.charuco.marker_size.clone(),
+                aruco_dict: args.charuco.aruco_dict.clone(),
+            }
+            .target()?,
+        ),
+        _ => bail!(
+            "--uncalibrated needs matched points: a target (--pattern P --size CxR --square S) or --points FILE"
+        ),
+    };
+    let interpolation = Interpolation::from_ros_parameter(args.interpolation)
+        .with_context(|| format!("--interpolation {}: expected 0, 1 or 2", args.interpolation))?;
+    let options = UncalibratedOptions {
+        left: args.left.clone(),
+        right: args.right.clone(),
+        source,
+        threshold: args.threshold,
+        remap: RemapOptions {
+            interpolation,
+            ..RemapOptions::default()
+        },
+        overwrite: args.overwrite,
+        uncompressed: args.uncompressed,
+    };
+    let progress = ProgressBar::new(0).with_style(
+        ProgressStyle::with_template(
+            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} images ({per_sec}, eta {eta})",
+        )
+        .context("progress bar template")?,
+    );
+    let report = rectify_bag_uncalibrated(&args.bag, &args.out, &options, &progress)?;
+    progress.finish_and_clear();
+    print_uncalibrated_summary(&report);
     if let Some(damage) = &report.damage {
         bail!(
             "the input bag is damaged ({damage}); {} holds everything before the damage",
@@ -241,14 +351,23 @@ struct Camera {
 
 /// Collects problems: printed as they happen (above the progress bar), the first ones
 /// kept for the report.
-struct Problems<'a> {
-    progress: &'a ProgressBar,
-    kept: Vec<Problem>,
-    count: u64,
+pub(super) struct Problems<'a> {
+    pub(super) progress: &'a ProgressBar,
+    pub(super) kept: Vec<Problem>,
+    pub(super) count: u64,
 }
 
-impl Problems<'_> {
-    fn report(&mut self, topic: &str, log_time_ns: u64, reason: String) {
+impl<'a> Problems<'a> {
+    /// No problems yet; they print above `progress`.
+    pub(super) fn new(progress: &'a ProgressBar) -> Self {
+        Self {
+            progress,
+            kept: Vec::new(),
+            count: 0,
+        }
+    }
+
+    pub(super) fn report(&mut self, topic: &str, log_time_ns: u64, reason: String) {
         self.progress.suspend(|| {
             eprintln!("skipped {topic} message at log time {log_time_ns} ns: {reason}");
         });
@@ -296,11 +415,7 @@ pub fn rectify_bag(
     progress
         .set_length(reader.topics_message_count(cameras.iter().map(|c| c.image_topic.as_str())));
 
-    let mut problems = Problems {
-        progress,
-        kept: Vec::new(),
-        count: 0,
-    };
+    let mut problems = Problems::new(progress);
     let mut copied = 0;
     let mut damage = None;
     for message in reader.messages(&TopicFilter::All) {
@@ -554,6 +669,6 @@ impl Camera {
 }
 
 /// The namespace of a topic: everything before its last `/`.
-fn namespace(topic: &str) -> &str {
+pub(super) fn namespace(topic: &str) -> &str {
     topic.rsplit_once('/').map_or("", |(ns, _)| ns)
 }

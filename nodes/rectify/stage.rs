@@ -179,7 +179,7 @@ fn same_calibration(a: &CameraInfo, b: &CameraInfo) -> bool {
 
 /// Gives `dst` the map's size and the source's channels and sample type, keeping its
 /// buffer when it already fits.
-fn shape_like(dst: &mut Image, src: &Image, map: &RectifyMap) {
+pub(crate) fn shape_like(dst: &mut Image, src: &Image, map: &RectifyMap) {
     let len = map.width() * map.height() * src.channels;
     match (&src.samples, &mut dst.samples) {
         (Samples::U8(_), Samples::U8(v)) => v.resize(len, 0),

@@ -12,7 +12,7 @@ use super::consensus::{self, Estimator, RobustOptions};
 use super::homography::{normalizing_transform, select};
 use super::null_space::null_space;
 use super::polynomial::real_roots;
-use super::{GeometryError, check_pairs};
+use super::{GeometryError, check_not_collinear, check_pairs};
 
 /// Correspondences of the 8-point algorithm.
 const MIN_POINTS: usize = 8;
@@ -55,12 +55,13 @@ pub fn sampson_distance(f: &Matrix3<f64>, a: &Point2<f64>, b: &Point2<f64>) -> f
 ///
 /// Errors: [`GeometryError::MismatchedLengths`], [`GeometryError::TooFewPoints`],
 /// [`GeometryError::NonFinite`], [`GeometryError::Degenerate`] when the points do not
-/// determine `F` (coincident points, or all points on one plane of the scene).
+/// determine `F` (all on one line in either image, or on one plane of the scene).
 pub fn fundamental_8point(
     points_a: &[Point2<f64>],
     points_b: &[Point2<f64>],
 ) -> Result<Matrix3<f64>, GeometryError> {
     check_pairs(points_a, points_b, MIN_POINTS)?;
+    check_not_collinear(points_a, points_b)?;
     let degenerate = || {
         GeometryError::Degenerate(
             "the points do not determine a fundamental matrix (coincident points, or a \
@@ -115,6 +116,7 @@ pub fn find_fundamental(
     options: &RobustOptions,
 ) -> Result<FundamentalEstimate, GeometryError> {
     check_pairs(points_a, points_b, MIN_POINTS)?;
+    check_not_collinear(points_a, points_b)?;
     let degenerate = || GeometryError::Degenerate("all points coincide in one image".into());
     let t_a = normalizing_transform(points_a).ok_or_else(degenerate)?;
     let t_b = normalizing_transform(points_b).ok_or_else(degenerate)?;

@@ -30,6 +30,7 @@ mod triangulate;
 pub use consensus::{RobustMethod, RobustOptions};
 pub use error::GeometryError;
 pub use essential::{EssentialEstimate, decompose_essential, essential_5point, find_essential};
+pub(crate) use fundamental::svd3;
 pub use fundamental::{
     FundamentalEstimate, find_fundamental, fundamental_8point, sampson_distance,
 };
@@ -69,6 +70,47 @@ fn check_pairs(
     }
     if !finite(points_b) {
         return Err(GeometryError::NonFinite("the points of the second image"));
+    }
+    Ok(())
+}
+
+/// Ratio of the spread of points across their principal direction to their spread along
+/// it below which they lie on one line.
+const COLLINEAR_RATIO: f64 = 1e-8;
+
+/// Whether the points lie on one line (or coincide): their spread across their
+/// principal direction is below [`COLLINEAR_RATIO`] of their spread along it.
+pub(crate) fn collinear(points: &[Point2<f64>]) -> bool {
+    let n = points.len() as f64;
+    let mean_x = points.iter().map(|p| p.x).sum::<f64>() / n;
+    let mean_y = points.iter().map(|p| p.y).sum::<f64>() / n;
+    let (mut sxx, mut sxy, mut syy) = (0.0, 0.0, 0.0);
+    for p in points {
+        let (dx, dy) = (p.x - mean_x, p.y - mean_y);
+        sxx += dx * dx;
+        sxy += dx * dy;
+        syy += dy * dy;
+    }
+    let half_trace = 0.5 * (sxx + syy);
+    let root = (0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy).sqrt();
+    let (along, across) = (half_trace + root, (half_trace - root).max(0.0));
+    along.is_nan() || along <= 0.0 || across.sqrt() <= COLLINEAR_RATIO * along.sqrt()
+}
+
+/// Refuses correspondences whose points all lie on one line (or coincide) in either
+/// image: they lie on a plane through that camera's centre and determine no epipolar
+/// geometry.
+fn check_not_collinear(
+    points_a: &[Point2<f64>],
+    points_b: &[Point2<f64>],
+) -> Result<(), GeometryError> {
+    for (points, image) in [(points_a, "first"), (points_b, "second")] {
+        if collinear(points) {
+            return Err(GeometryError::Degenerate(format!(
+                "all points of the {image} image lie on one line: the epipolar geometry needs \
+                 points that are not all on one line"
+            )));
+        }
     }
     Ok(())
 }
