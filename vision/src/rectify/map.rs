@@ -11,11 +11,17 @@
 //! 1/64 pixel of the exact one. Positions farther than 32767 pixels from the origin are
 //! clamped to the `i16` range; they lie outside any image and sample the border.
 
+use std::mem::MaybeUninit;
+
 use nalgebra::{Matrix3, Matrix3x4};
 use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::camera::{CameraModel, Distortion, Intrinsics};
+
+mod pinhole;
+
+use pinhole::Pinhole;
 
 /// Bits of sub-pixel precision of a map position (OpenCV's `INTER_BITS`).
 pub const INTER_BITS: u32 = 5;
@@ -98,18 +104,20 @@ impl RectifyMap {
             .as_slice()
             .try_into()
             .map_err(|_| MapError::SingularProjection)?;
-        // One monomorphized per-pixel function per model keeps the model dispatch out of
-        // the pixel loop.
         match camera.distortion {
             Distortion::PlumbBob {
                 coeffs: [k1, k2, p1, p2, k3],
-            } => Self::from_fn(
-                width,
-                height,
-                pinhole(ir, k, [k1, k2, p1, p2, k3, 0.0, 0.0, 0.0]),
-            ),
+            } => {
+                let pinhole = Pinhole::new(ir, k, [k1, k2, p1, p2, k3, 0.0, 0.0, 0.0]);
+                Self::from_rows(width, height, |y, xy, fraction| {
+                    pinhole.fill_row(y, xy, fraction)
+                })
+            }
             Distortion::RationalPolynomial { coeffs } => {
-                Self::from_fn(width, height, pinhole(ir, k, coeffs))
+                let pinhole = Pinhole::new(ir, k, coeffs);
+                Self::from_rows(width, height, |y, xy, fraction| {
+                    pinhole.fill_row(y, xy, fraction)
+                })
             }
             Distortion::Equidistant { coeffs } => {
                 Self::from_fn(width, height, fisheye(ir, k, coeffs))
@@ -137,24 +145,44 @@ impl RectifyMap {
     where
         F: Fn(usize, usize) -> (f64, f64) + Sync,
     {
+        Self::from_rows(width, height, |y, xy_row, fraction_row| {
+            #[cfg(target_arch = "x86_64")]
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2.
+                unsafe { fill_row_avx2(&source, y, xy_row, fraction_row) };
+                return;
+            }
+            fill_row(&source, y, xy_row, fraction_row);
+        })
+    }
+
+    /// A map whose row `y` is written by `fill_row(y, xy, fraction)`, which must write
+    /// every element of both (uninitialized) slices. Rows are filled in parallel on the
+    /// current rayon pool.
+    fn from_rows<F>(width: usize, height: usize, fill_row: F) -> Result<Self, MapError>
+    where
+        F: Fn(usize, &mut [MaybeUninit<[i16; 2]>], &mut [MaybeUninit<u16>]) + Sync,
+    {
         let max_side = i16::MAX as usize;
         if width == 0 || height == 0 || width > max_side || height > max_side {
             return Err(MapError::InvalidSize { width, height });
         }
-        let mut xy = vec![[0i16; 2]; width * height];
-        let mut fraction = vec![0u16; width * height];
-        xy.par_chunks_mut(width)
-            .zip(fraction.par_chunks_mut(width))
+        let len = width * height;
+        let mut xy: Vec<[i16; 2]> = Vec::with_capacity(len);
+        let mut fraction: Vec<u16> = Vec::with_capacity(len);
+        // Every element is written once below; zeroing the tables first would cost a
+        // tenth of the build.
+        xy.spare_capacity_mut()[..len]
+            .par_chunks_mut(width)
+            .zip(fraction.spare_capacity_mut()[..len].par_chunks_mut(width))
             .enumerate()
-            .for_each(|(y, (xy_row, fraction_row))| {
-                #[cfg(target_arch = "x86_64")]
-                if std::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU supports AVX2.
-                    unsafe { fill_row_avx2(&source, y, xy_row, fraction_row) };
-                    return;
-                }
-                fill_row(&source, y, xy_row, fraction_row);
-            });
+            .for_each(|(y, (xy_row, fraction_row))| fill_row(y, xy_row, fraction_row));
+        // SAFETY: the capacity is `len`, and `fill_row` has written all `len` elements of
+        // both tables, one row of `width` at a time.
+        unsafe {
+            xy.set_len(len);
+            fraction.set_len(len);
+        }
         Ok(Self {
             width,
             height,
@@ -209,8 +237,12 @@ impl RectifyMap {
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn fill_row_avx2<F>(source: &F, y: usize, xy_row: &mut [[i16; 2]], fraction_row: &mut [u16])
-where
+unsafe fn fill_row_avx2<F>(
+    source: &F,
+    y: usize,
+    xy_row: &mut [MaybeUninit<[i16; 2]>],
+    fraction_row: &mut [MaybeUninit<u16>],
+) where
     F: Fn(usize, usize) -> (f64, f64),
 {
     fill_row(source, y, xy_row, fraction_row);
@@ -220,8 +252,12 @@ where
 /// converted to fixed point in a second pass, so both loops are free of calls and
 /// branches and the compiler can vectorize them.
 #[inline(always)]
-fn fill_row<F>(source: &F, y: usize, xy_row: &mut [[i16; 2]], fraction_row: &mut [u16])
-where
+fn fill_row<F>(
+    source: &F,
+    y: usize,
+    xy_row: &mut [MaybeUninit<[i16; 2]>],
+    fraction_row: &mut [MaybeUninit<u16>],
+) where
     F: Fn(usize, usize) -> (f64, f64),
 {
     const CHUNK: usize = 64;
@@ -245,33 +281,9 @@ where
         {
             let (iu, iv) = (fixed_point(u), fixed_point(v));
             // The clamp in `fixed_point` keeps both integer parts in i16.
-            *xy_px = [(iu >> INTER_BITS) as i16, (iv >> INTER_BITS) as i16];
-            *fraction_px = (((iv & FRACTION_MASK) << INTER_BITS) | (iu & FRACTION_MASK)) as u16;
+            xy_px.write([(iu >> INTER_BITS) as i16, (iv >> INTER_BITS) as i16]);
+            fraction_px.write((((iv & FRACTION_MASK) << INTER_BITS) | (iu & FRACTION_MASK)) as u16);
         }
-    }
-}
-
-/// The source pixel of output pixel `(x, y)` for the pinhole models, OpenCV's
-/// `initUndistortRectifyMap` formulas: `ir` is `(P[:, :3] * R)^-1` row-major, `d` the
-/// rational_polynomial coefficients `k1 k2 p1 p2 k3 k4 k5 k6` (plumb_bob: `k4..k6 = 0`).
-/// The ray is divided by its `z` whatever its sign, as OpenCV does.
-fn pinhole(ir: [f64; 9], k: Intrinsics, d: [f64; 8]) -> impl Fn(usize, usize) -> (f64, f64) + Sync {
-    let [k1, k2, p1, p2, k3, k4, k5, k6] = d;
-    #[inline(always)]
-    move |x, y| {
-        let (x, y) = (x as f64, y as f64);
-        let rx = ir[0] * x + ir[1] * y + ir[2];
-        let ry = ir[3] * x + ir[4] * y + ir[5];
-        let rw = ir[6] * x + ir[7] * y + ir[8];
-        let w = 1.0 / rw;
-        let (x, y) = (rx * w, ry * w);
-        let (x2, y2) = (x * x, y * y);
-        let r2 = x2 + y2;
-        let xy2 = 2.0 * x * y;
-        let kr = (1.0 + ((k3 * r2 + k2) * r2 + k1) * r2) / (1.0 + ((k6 * r2 + k5) * r2 + k4) * r2);
-        let xd = x * kr + p1 * xy2 + p2 * (r2 + 2.0 * x2);
-        let yd = y * kr + p1 * (r2 + 2.0 * y2) + p2 * xy2;
-        (k.fx * xd + k.cx, k.fy * yd + k.cy)
     }
 }
 
@@ -314,6 +326,12 @@ fn fisheye(ir: [f64; 9], k: Intrinsics, d: [f64; 4]) -> impl Fn(usize, usize) ->
 /// part fits in `i16`; NaN goes far outside any image.
 #[inline(always)]
 fn fixed_point(v: f64) -> i32 {
+    fixed_point_steps(v * f64::from(INTER_TAB_SIZE))
+}
+
+/// [`fixed_point`] of a position already in 1/32 pixel.
+#[inline(always)]
+fn fixed_point_steps(steps: f64) -> i32 {
     // 1.5 * 2^52: adding it to a value of magnitude below 2^51 rounds to an integer (ties
     // to even) held in the low mantissa bits, which read as two's complement.
     const ROUND: f64 = 6_755_399_441_055_744.0;
@@ -321,7 +339,7 @@ fn fixed_point(v: f64) -> i32 {
     let hi = f64::from(i32::from(i16::MAX) * INTER_TAB_SIZE + FRACTION_MASK);
     // `max` maps NaN to `lo`. Clamping before rounding keeps the same result, since the
     // bounds are integers, and keeps the value in the range of the rounding trick.
-    let clamped = (v * f64::from(INTER_TAB_SIZE)).max(lo).min(hi);
+    let clamped = steps.max(lo).min(hi);
     (clamped + ROUND).to_bits() as u32 as i32
 }
 
