@@ -1,15 +1,17 @@
-"""Times stereocal's remap and map building against OpenCV's on the same 1920x1080 image
+"""Times stereocal's map building and remap against OpenCV's on the same 1920x1080 image
 and the same camera (plumb_bob with a rectification R and a new projection P, from
 check_remap_opencv.py), one thread and all threads, side by side in one run.
 
     .venv/bin/python interop/bench_remap_opencv.py [--bin PATH] [--iterations 100] [--rounds 3]
 
 stereocal runs through the `remap_image` example in its timing mode (`--bench N`), which
-builds the map once and times N remaps into a reused output; OpenCV remaps into a
-preallocated `dst` with its fixed-point maps (CV_16SC2 + CV_16UC1), with
-cv2.setNumThreads(1) and with its default thread count. Rounds alternate between the two
-so that load from other processes hits both alike. Prints the minimum and median times
-in milliseconds and the ratio OpenCV / stereocal (above 1: stereocal is faster).
+builds the fixed-point map N times and remaps N times into a reused output, on one
+thread (`--threads 1`) or all threads. OpenCV builds its fixed-point maps
+(initUndistortRectifyMap, CV_16SC2 + CV_16UC1) N times and remaps into a preallocated
+`dst` with them, with cv2.setNumThreads(1) and with its default thread count. Rounds
+alternate between the two so that load from other processes hits both alike. Prints the
+minimum and median times in milliseconds and the ratio OpenCV / stereocal of the minima
+and of the medians (above 1: stereocal is faster).
 """
 
 import argparse
@@ -39,6 +41,15 @@ def time_opencv(image, maps, interpolation, iterations):
     return times
 
 
+def time_opencv_maps(case, iterations):
+    times = []
+    for _ in range(iterations):
+        start = time.perf_counter()
+        opencv_maps(case)
+        times.append((time.perf_counter() - start) * 1e3)
+    return times
+
+
 def time_ours(binary, params, image_path, iterations, threads):
     out = subprocess.run(
         [binary, params, image_path, "--bench", str(iterations), "--threads", threads],
@@ -59,48 +70,53 @@ def main():
     case = cases(WIDTH, HEIGHT)["plumb_bob"]
     default_threads = cv2.getNumThreads()
     print(f"OpenCV {cv2.__version__}, default threads {default_threads}, cpus {os.cpu_count()}")
-    print(f"{'case':32s} {'OpenCV min/median':>20s} {'stereocal min/median':>22s} {'ratio min':>10s}")
+    print(
+        f"{'case':32s} {'OpenCV min/median':>20s} {'stereocal min/median':>22s}"
+        f" {'ratio min':>10s} {'ratio median':>13s}"
+    )
+    thread_settings = [("1 thread", 1, "1"), ("all threads", default_threads, "all")]
+
+    def report(name, cv_times, our_min, our_median):
+        cv_min, cv_median = min(cv_times), statistics.median(cv_times)
+        ours_min, ours_median = min(our_min), statistics.median(our_median)
+        print(
+            f"{name:32s} {cv_min:9.3f} /{cv_median:8.3f}  {ours_min:10.3f} /{ours_median:8.3f}"
+            f"  {cv_min / ours_min:9.2f}x {cv_median / ours_median:12.2f}x"
+        )
+
     with tempfile.TemporaryDirectory() as tmp:
         params = os.path.join(tmp, "params.json")
-        # Map building.
-        cv_map_ms, our_map_ms = [], []
+        images = {}
         for kind, channels in [("mono8", 1), ("rgb8", 3)]:
             image = texture(WIDTH, HEIGHT, channels)
-            image_path = os.path.join(tmp, f"{kind}.png")
-            cv2.imwrite(image_path, image if channels == 1 else image[..., ::-1])
+            images[kind] = (image, os.path.join(tmp, f"{kind}.png"))
+            cv2.imwrite(images[kind][1], image if channels == 1 else image[..., ::-1])
+        # Map building: N fixed-point maps per round on each side.
+        write_params(params, case, "bilinear")
+        for threads_name, cv_threads, our_threads in thread_settings:
+            cv_times, our_min, our_median = [], [], []
+            for _ in range(args.rounds):
+                cv2.setNumThreads(cv_threads)
+                cv_times += time_opencv_maps(case, args.iterations)
+                ours = time_ours(binary, params, images["mono8"][1], args.iterations, our_threads)
+                our_min.append(ours["map_ms_min"])
+                our_median.append(ours["map_ms_median"])
+            report(f"map build {threads_name}", cv_times, our_min, our_median)
+        # Remap with one map, built once per side.
+        for kind, (image, image_path) in images.items():
             for interpolation in ["bilinear", "nearest"]:
                 write_params(params, case, interpolation)
-                for threads_name, cv_threads, our_threads in [
-                    ("1 thread", 1, "1"),
-                    ("all threads", default_threads, "all"),
-                ]:
+                for threads_name, cv_threads, our_threads in thread_settings:
                     cv_times, our_min, our_median = [], [], []
                     for _ in range(args.rounds):
                         cv2.setNumThreads(cv_threads)
-                        start = time.perf_counter()
                         maps = opencv_maps(case)
-                        if our_threads == "all":
-                            cv_map_ms.append((time.perf_counter() - start) * 1e3)
                         cv_times += time_opencv(image, maps, interpolation, args.iterations)
                         ours = time_ours(binary, params, image_path, args.iterations, our_threads)
                         our_min.append(ours["remap_ms_min"])
                         our_median.append(ours["remap_ms_median"])
-                        if our_threads == "all":
-                            our_map_ms.append(ours["map_ms"])
-                    cv_min, cv_median = min(cv_times), statistics.median(cv_times)
-                    ours_min, ours_median = min(our_min), statistics.median(our_median)
-                    name = f"remap {kind} {interpolation} {threads_name}"
-                    print(
-                        f"{name:32s} {cv_min:9.3f} /{cv_median:8.3f}  {ours_min:10.3f} /{ours_median:8.3f}"
-                        f"  {cv_min / ours_min:9.2f}x"
-                    )
+                    report(f"remap {kind} {interpolation} {threads_name}", cv_times, our_min, our_median)
         cv2.setNumThreads(default_threads)
-        print(
-            f"{'map build, all threads':32s} {min(cv_map_ms):9.3f} /{statistics.median(cv_map_ms):8.3f}"
-            f"  {min(our_map_ms):10.3f} /{statistics.median(our_map_ms):8.3f}"
-            f"  {min(cv_map_ms) / min(our_map_ms):9.2f}x"
-        )
-
 
 if __name__ == "__main__":
     main()

@@ -104,17 +104,19 @@ impl RectifyMap {
             .as_slice()
             .try_into()
             .map_err(|_| MapError::SingularProjection)?;
+        // Before the column tables are sized by `width`.
+        check_size(width, height)?;
         match camera.distortion {
             Distortion::PlumbBob {
                 coeffs: [k1, k2, p1, p2, k3],
             } => {
-                let pinhole = Pinhole::new(ir, k, [k1, k2, p1, p2, k3, 0.0, 0.0, 0.0]);
+                let pinhole = Pinhole::new(ir, k, [k1, k2, p1, p2, k3, 0.0, 0.0, 0.0], width);
                 Self::from_rows(width, height, |y, xy, fraction| {
                     pinhole.fill_row(y, xy, fraction)
                 })
             }
             Distortion::RationalPolynomial { coeffs } => {
-                let pinhole = Pinhole::new(ir, k, coeffs);
+                let pinhole = Pinhole::new(ir, k, coeffs, width);
                 Self::from_rows(width, height, |y, xy, fraction| {
                     pinhole.fill_row(y, xy, fraction)
                 })
@@ -163,10 +165,7 @@ impl RectifyMap {
     where
         F: Fn(usize, &mut [MaybeUninit<[i16; 2]>], &mut [MaybeUninit<u16>]) + Sync,
     {
-        let max_side = i16::MAX as usize;
-        if width == 0 || height == 0 || width > max_side || height > max_side {
-            return Err(MapError::InvalidSize { width, height });
-        }
+        check_size(width, height)?;
         let len = width * height;
         let mut xy: Vec<[i16; 2]> = Vec::with_capacity(len);
         let mut fraction: Vec<u16> = Vec::with_capacity(len);
@@ -227,6 +226,15 @@ impl RectifyMap {
             f64::from(iy) + f64::from(f >> INTER_BITS) / step,
         ))
     }
+}
+
+/// Refuses a map size that is empty or too large for 16-bit map coordinates.
+fn check_size(width: usize, height: usize) -> Result<(), MapError> {
+    let max_side = i16::MAX as usize;
+    if width == 0 || height == 0 || width > max_side || height > max_side {
+        return Err(MapError::InvalidSize { width, height });
+    }
+    Ok(())
 }
 
 /// [`fill_row`] compiled for AVX2: four doubles per instruction instead of two. The

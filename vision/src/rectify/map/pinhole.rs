@@ -6,7 +6,8 @@
 //! whatever its sign (as OpenCV does), distorted and projected with `K`. Each step is
 //! evaluated in the same order with the same operations as the direct per-pixel
 //! formula, without fused multiply-adds; only steps that are exact are rewritten:
-//! - the column `x` is a float counter (integers are exact in `f64`);
+//! - the products `ir[0] x`, `ir[3] x`, `ir[6] x` of every column are computed once
+//!   per map, not once per row;
 //! - a plumb_bob (or rational with `k4 = k5 = k6 = 0`) radial factor is not divided by
 //!   its denominator: that denominator is exactly 1 for every finite `r^2`, and NaN
 //!   (`0 * inf`) for an infinite one, which `num + (r2 - r2)` reproduces;
@@ -26,6 +27,8 @@ const FRACTION_MASK: i32 = INTER_TAB_SIZE - 1;
 pub(super) struct Pinhole {
     /// `(P[:, :3] R)^-1`, row-major.
     ir: [f64; 9],
+    /// `ir[0] x`, `ir[3] x` and `ir[6] x` for every column `x` of the map.
+    columns: [Vec<f64>; 3],
     /// `k1 k2 p1 p2 k3 k4 k5 k6`.
     d: [f64; 8],
     /// `fx, fy, cx, cy`, each times [`INTER_TAB_SIZE`].
@@ -39,19 +42,23 @@ pub(super) struct Pinhole {
 struct RowTerms([f64; 3]);
 
 impl Pinhole {
-    /// The rows of the map with ray matrix `ir` (row-major `(P[:, :3] R)^-1`), camera
-    /// `k` and rational_polynomial coefficients `d` (plumb_bob: `k4..k6 = 0`).
-    pub(super) fn new(ir: [f64; 9], k: Intrinsics, d: [f64; 8]) -> Self {
+    /// The rows, `width` pixels long, of the map with ray matrix `ir` (row-major
+    /// `(P[:, :3] R)^-1`), camera `k` and rational_polynomial coefficients `d`
+    /// (plumb_bob: `k4..k6 = 0`).
+    pub(super) fn new(ir: [f64; 9], k: Intrinsics, d: [f64; 8], width: usize) -> Self {
         let steps = f64::from(INTER_TAB_SIZE);
+        let column = |a: f64| (0..width).map(|x| a * x as f64).collect();
         Self {
             ir,
+            columns: [column(ir[0]), column(ir[3]), column(ir[6])],
             d,
             k_steps: [k.fx * steps, k.fy * steps, k.cx * steps, k.cy * steps],
             rational: d[5..].iter().any(|&k| k != 0.0),
         }
     }
 
-    /// Writes row `y` of the map: every element of `xy` and `fraction` (same length).
+    /// Writes row `y` of the map: every element of `xy` and `fraction` (both one row
+    /// long).
     pub(super) fn fill_row(
         &self,
         y: usize,
@@ -84,13 +91,14 @@ impl Pinhole {
 
     /// The source position of pixel `(x, y)` in 1/32 pixel, not yet rounded.
     #[inline(always)]
-    fn position<const RATIONAL: bool>(&self, x: f64, row: RowTerms) -> (f64, f64) {
+    fn position<const RATIONAL: bool>(&self, x: usize, row: RowTerms) -> (f64, f64) {
         let ir = &self.ir;
         let [k1, k2, p1, p2, k3, k4, k5, k6] = self.d;
         let [fx, fy, cx, cy] = self.k_steps;
-        let rx = ir[0] * x + row.0[0] + ir[2];
-        let ry = ir[3] * x + row.0[1] + ir[5];
-        let rw = ir[6] * x + row.0[2] + ir[8];
+        let [ax, ay, aw] = &self.columns;
+        let rx = ax[x] + row.0[0] + ir[2];
+        let ry = ay[x] + row.0[1] + ir[5];
+        let rw = aw[x] + row.0[2] + ir[8];
         let w = 1.0 / rw;
         let (x, y) = (rx * w, ry * w);
         let (x2, y2) = (x * x, y * y);
@@ -118,7 +126,7 @@ impl Pinhole {
     ) {
         let row = self.row_terms(y);
         for (i, (xy, fraction)) in xy.iter_mut().zip(fraction.iter_mut()).enumerate() {
-            let (u, v) = self.position::<RATIONAL>((x0 + i) as f64, row);
+            let (u, v) = self.position::<RATIONAL>(x0 + i, row);
             let (iu, iv) = (fixed_point_steps(u), fixed_point_steps(v));
             // The clamp in `fixed_point_steps` keeps both integer parts in i16.
             xy.write([(iu >> INTER_BITS) as i16, (iv >> INTER_BITS) as i16]);
@@ -141,27 +149,38 @@ impl Pinhole {
     ) {
         use std::arch::x86_64::*;
 
-        let n = xy.len().min(fraction.len());
+        let [ax, ay, aw] = &self.columns;
+        let n = xy.len().min(fraction.len()).min(ax.len());
+        let (ax, ay, aw) = (&ax[..n], &ay[..n], &aw[..n]);
         let row = self.row_terms(y);
         let ir = self.ir.map(|v| _mm256_set1_pd(v));
         let [rx_row, ry_row, rw_row] = row.0.map(|v| _mm256_set1_pd(v));
         let [k1, k2, p1, p2, k3, k4, k5, k6] = self.d.map(|v| _mm256_set1_pd(v));
         let [fx, fy, cx, cy] = self.k_steps.map(|v| _mm256_set1_pd(v));
         let one = _mm256_set1_pd(1.0);
-        let lo = _mm256_set1_pd(f64::from(i32::from(i16::MIN) * INTER_TAB_SIZE));
+        let lo = _mm256_set1_epi32(i32::from(i16::MIN) * INTER_TAB_SIZE);
         let hi = _mm256_set1_pd(f64::from(
             i32::from(i16::MAX) * INTER_TAB_SIZE + FRACTION_MASK,
         ));
-        let four = _mm256_set1_pd(4.0);
         let fraction_mask = _mm256_set1_epi32(FRACTION_MASK);
         let low_half = _mm256_set1_epi32(0xffff);
-        // Positions of four pixels in 1/32 pixel, rounded half to even (the default
-        // rounding mode, like OpenCV's cvRound) after the same clamp as
-        // `fixed_point_steps`: `max` returns its second operand for NaN.
-        let fixed = |x: __m256d| -> (__m128i, __m128i) {
-            let rx = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ir[0], x), rx_row), ir[2]);
-            let ry = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ir[3], x), ry_row), ir[5]);
-            let rw = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(ir[6], x), rw_row), ir[8]);
+        // Positions of pixels `i..i + 4` in 1/32 pixel, rounded half to even (the
+        // default rounding mode, like OpenCV's cvRound) and clamped at the top; the
+        // caller clamps at the bottom in integers, where NaN and anything below -2^31
+        // have become i32::MIN (the same as `fixed_point_steps`, since the bounds are
+        // integers). `min` returns its second operand, the position, when that is NaN.
+        let fixed = |i: usize| -> (__m128i, __m128i) {
+            // SAFETY: the caller keeps `i + 4 <= n`, the length of the column slices.
+            let (ax, ay, aw) = unsafe {
+                (
+                    _mm256_loadu_pd(ax.as_ptr().add(i)),
+                    _mm256_loadu_pd(ay.as_ptr().add(i)),
+                    _mm256_loadu_pd(aw.as_ptr().add(i)),
+                )
+            };
+            let rx = _mm256_add_pd(_mm256_add_pd(ax, rx_row), ir[2]);
+            let ry = _mm256_add_pd(_mm256_add_pd(ay, ry_row), ir[5]);
+            let rw = _mm256_add_pd(_mm256_add_pd(aw, rw_row), ir[8]);
             let w = _mm256_div_pd(one, rw);
             let (x, y) = (_mm256_mul_pd(rx, w), _mm256_mul_pd(ry, w));
             let (x2, y2) = (_mm256_mul_pd(x, x), _mm256_mul_pd(y, y));
@@ -191,18 +210,15 @@ impl Pinhole {
             );
             let u = _mm256_add_pd(_mm256_mul_pd(fx, xd), cx);
             let v = _mm256_add_pd(_mm256_mul_pd(fy, yd), cy);
-            let round = |s: __m256d| _mm256_cvtpd_epi32(_mm256_min_pd(_mm256_max_pd(s, lo), hi));
+            let round = |s: __m256d| _mm256_cvtpd_epi32(_mm256_min_pd(hi, s));
             (round(u), round(v))
         };
-        let mut x = _mm256_setr_pd(0.0, 1.0, 2.0, 3.0);
         let mut i = 0;
         while i + 8 <= n {
-            let (u0, v0) = fixed(x);
-            x = _mm256_add_pd(x, four);
-            let (u1, v1) = fixed(x);
-            x = _mm256_add_pd(x, four);
-            let iu = _mm256_set_m128i(u1, u0);
-            let iv = _mm256_set_m128i(v1, v0);
+            let (u0, v0) = fixed(i);
+            let (u1, v1) = fixed(i + 4);
+            let iu = _mm256_max_epi32(_mm256_set_m128i(u1, u0), lo);
+            let iv = _mm256_max_epi32(_mm256_set_m128i(v1, v0), lo);
             // `[x, y]` as two i16 in one 32-bit word, `x` in the low half.
             let integer = _mm256_or_si256(
                 _mm256_and_si256(_mm256_srai_epi32::<{ INTER_BITS as i32 }>(iu), low_half),
