@@ -10,7 +10,7 @@
 //!   per map, not once per row;
 //! - a plumb_bob (or rational with `k4 = k5 = k6 = 0`) radial factor is not divided by
 //!   its denominator: that denominator is exactly 1 for every finite `r^2`, and NaN
-//!   (`0 * inf`) for an infinite one, which `num + (r2 - r2)` reproduces;
+//!   (`0 * inf`) for an infinite one, which `num + 0 * r2` reproduces;
 //! - the scaling to 1/32 pixel is folded into `K` (`32 fx`, `32 cx`): multiplying by a
 //!   power of two commutes with rounding, except where an intermediate is subnormal or
 //!   overflows, and there both forms round to the same fixed-point value (0 near the
@@ -108,7 +108,7 @@ impl Pinhole {
         let kr = if RATIONAL {
             num / (1.0 + ((k6 * r2 + k5) * r2 + k4) * r2)
         } else {
-            num + (r2 - r2)
+            num + r2 * 0.0
         };
         let xd = x * kr + p1 * xy2 + p2 * (r2 + 2.0 * x2);
         let yd = y * kr + p1 * (r2 + 2.0 * y2) + p2 * xy2;
@@ -149,8 +149,9 @@ impl Pinhole {
     ) {
         use std::arch::x86_64::*;
 
+        let n = xy.len();
+        let fraction = &mut fraction[..n];
         let [ax, ay, aw] = &self.columns;
-        let n = xy.len().min(fraction.len()).min(ax.len());
         let (ax, ay, aw) = (&ax[..n], &ay[..n], &aw[..n]);
         let row = self.row_terms(y);
         let ir = self.ir.map(|v| _mm256_set1_pd(v));
@@ -195,7 +196,7 @@ impl Pinhole {
             let kr = if RATIONAL {
                 _mm256_div_pd(num, poly(k6, k5, k4))
             } else {
-                _mm256_add_pd(num, _mm256_sub_pd(r2, r2))
+                _mm256_add_pd(num, _mm256_mul_pd(r2, _mm256_setzero_pd()))
             };
             let xd = _mm256_add_pd(
                 _mm256_add_pd(_mm256_mul_pd(x, kr), _mm256_mul_pd(p1, xy2)),
@@ -240,6 +241,6 @@ impl Pinhole {
             }
             i += 8;
         }
-        self.fill_pixels::<RATIONAL>(y, i, &mut xy[i..n], &mut fraction[i..n]);
+        self.fill_pixels::<RATIONAL>(y, i, &mut xy[i..], &mut fraction[i..]);
     }
 }

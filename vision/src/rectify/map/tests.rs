@@ -230,14 +230,22 @@ fn reference_fixed(v: f64) -> i32 {
     }
 }
 
+/// A camera_info of [`regression_cases`].
+struct RegressionCase {
+    name: String,
+    model: CameraModel,
+    r: Matrix3<f64>,
+    p: Matrix3x4<f64>,
+    /// Whether some positions must fall beyond the `i16` range.
+    far: bool,
+}
+
 /// Camera_infos that exercise every path of the map: the three models, rational
 /// denominators that are and are not one, distortion strong enough to throw positions
 /// beyond the `i16` range, and each with R = I and P = [K | 0] (undistortion only), a
 /// stereo R and P, a rotation that puts part of the view behind the camera, and a
 /// projection whose rays reach `w = 0` exactly on one column.
-///
-/// Each case comes with whether some positions must fall beyond the `i16` range.
-fn regression_cases() -> Vec<(String, CameraModel, Matrix3<f64>, Matrix3x4<f64>, bool)> {
+fn regression_cases() -> Vec<RegressionCase> {
     let distortions = [
         Distortion::PlumbBob {
             coeffs: [-0.28, 0.09, 0.001, -0.0007, -0.012],
@@ -282,7 +290,13 @@ fn regression_cases() -> Vec<(String, CameraModel, Matrix3<f64>, Matrix3x4<f64>,
             ("sideways", sideways, stereo_p, true),
             ("w = 0", Matrix3::identity(), w_zero_p, true),
         ] {
-            cases.push((format!("{name}, {geometry}"), model.clone(), r, p, far));
+            cases.push(RegressionCase {
+                name: format!("{name}, {geometry}"),
+                model: model.clone(),
+                r,
+                p,
+                far,
+            });
         }
     }
     cases
@@ -296,7 +310,14 @@ fn map_equals_the_per_pixel_reference_bit_for_bit() {
         .num_threads(1)
         .build()
         .unwrap();
-    for (name, model, r, p, expect_far) in regression_cases() {
+    for RegressionCase {
+        name,
+        model,
+        r,
+        p,
+        far: expect_far,
+    } in regression_cases()
+    {
         let original_from_pixel = (p.fixed_view::<3, 3>(0, 0) * r).try_inverse().unwrap();
         for (width, height) in [(333, 211), (8, 3), (1, 2), (17, 5)] {
             let map = RectifyMap::new(&model, &r, &p, width, height).unwrap();
