@@ -169,8 +169,7 @@ impl RectifyMap {
         let len = width * height;
         let mut xy: Vec<[i16; 2]> = Vec::with_capacity(len);
         let mut fraction: Vec<u16> = Vec::with_capacity(len);
-        // Every element is written once below; zeroing the tables first would cost a
-        // tenth of the build.
+        // Every element is written once below, so the tables are not zeroed first.
         xy.spare_capacity_mut()[..len]
             .par_chunks_mut(width)
             .zip(fraction.spare_capacity_mut()[..len].par_chunks_mut(width))

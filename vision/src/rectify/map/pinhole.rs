@@ -14,7 +14,9 @@
 //! - the scaling to 1/32 pixel is folded into `K` (`32 fx`, `32 cx`): multiplying by a
 //!   power of two commutes with rounding, except where an intermediate is subnormal or
 //!   overflows, and there both forms round to the same fixed-point value (0 near the
-//!   origin, the clamp far from it).
+//!   origin, the clamp far from it) as long as `K`'s entries are far from overflowing
+//!   ([`FOLD_LIMIT`]); a camera beyond that is scaled after projecting, one pixel at a
+//!   time.
 
 use std::mem::MaybeUninit;
 
@@ -22,6 +24,11 @@ use super::{INTER_BITS, INTER_TAB_SIZE, fixed_point_steps};
 use crate::camera::Intrinsics;
 
 const FRACTION_MASK: i32 = INTER_TAB_SIZE - 1;
+
+/// Largest magnitude of `fx, fy, cx, cy` for which the 1/32 pixel scaling is folded into
+/// them: `32 fx x + 32 cx` can then overflow only where `fx x + cx` is beyond the clamp
+/// too, on the same side.
+const FOLD_LIMIT: f64 = 1e300;
 
 /// Everything a row of a pinhole map needs, computed once per map.
 pub(super) struct Pinhole {
@@ -31,8 +38,11 @@ pub(super) struct Pinhole {
     columns: [Vec<f64>; 3],
     /// `k1 k2 p1 p2 k3 k4 k5 k6`.
     d: [f64; 8],
-    /// `fx, fy, cx, cy`, each times [`INTER_TAB_SIZE`].
+    /// `fx, fy, cx, cy`, each times [`INTER_TAB_SIZE`] when `scale` is 1.
     k_steps: [f64; 4],
+    /// What a projected position is multiplied by to be in 1/32 pixel: 1 when the
+    /// scaling is folded into `k_steps`, else [`INTER_TAB_SIZE`].
+    scale: f64,
     /// Whether the radial factor has a denominator other than 1 (`k4..k6` not all 0).
     rational: bool,
 }
@@ -48,11 +58,14 @@ impl Pinhole {
     pub(super) fn new(ir: [f64; 9], k: Intrinsics, d: [f64; 8], width: usize) -> Self {
         let steps = f64::from(INTER_TAB_SIZE);
         let column = |a: f64| (0..width).map(|x| a * x as f64).collect();
+        let k = [k.fx, k.fy, k.cx, k.cy];
+        let fold = k.iter().all(|v| v.abs() <= FOLD_LIMIT);
         Self {
             ir,
             columns: [column(ir[0]), column(ir[3]), column(ir[6])],
             d,
-            k_steps: [k.fx * steps, k.fy * steps, k.cx * steps, k.cy * steps],
+            k_steps: if fold { k.map(|v| v * steps) } else { k },
+            scale: if fold { 1.0 } else { steps },
             rational: d[5..].iter().any(|&k| k != 0.0),
         }
     }
@@ -66,7 +79,7 @@ impl Pinhole {
         fraction: &mut [MaybeUninit<u16>],
     ) {
         #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2") {
+        if self.scale == 1.0 && std::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU supports AVX2.
             unsafe {
                 if self.rational {
@@ -89,7 +102,8 @@ impl Pinhole {
         RowTerms([self.ir[1] * y, self.ir[4] * y, self.ir[7] * y])
     }
 
-    /// The source position of pixel `(x, y)` in 1/32 pixel, not yet rounded.
+    /// The source position of pixel `(x, y)`, not yet rounded, in 1/32 pixel once
+    /// multiplied by `scale`.
     #[inline(always)]
     fn position<const RATIONAL: bool>(&self, x: usize, row: RowTerms) -> (f64, f64) {
         let ir = &self.ir;
@@ -127,7 +141,10 @@ impl Pinhole {
         let row = self.row_terms(y);
         for (i, (xy, fraction)) in xy.iter_mut().zip(fraction.iter_mut()).enumerate() {
             let (u, v) = self.position::<RATIONAL>(x0 + i, row);
-            let (iu, iv) = (fixed_point_steps(u), fixed_point_steps(v));
+            let (iu, iv) = (
+                fixed_point_steps(u * self.scale),
+                fixed_point_steps(v * self.scale),
+            );
             // The clamp in `fixed_point_steps` keeps both integer parts in i16.
             xy.write([(iu >> INTER_BITS) as i16, (iv >> INTER_BITS) as i16]);
             fraction.write((((iv & FRACTION_MASK) << INTER_BITS) | (iu & FRACTION_MASK)) as u16);
@@ -135,7 +152,7 @@ impl Pinhole {
     }
 
     /// [`Pinhole::fill_pixels`] eight pixels at a time, four doubles per instruction:
-    /// the same IEEE operations in the same order.
+    /// the same IEEE operations in the same order. Only for a `scale` of 1.
     ///
     /// # Safety
     /// The CPU must support AVX2.

@@ -243,15 +243,16 @@ struct RegressionCase {
 /// Camera_infos that exercise every path of the map: the three models, rational
 /// denominators that are and are not one, distortion strong enough to throw positions
 /// beyond the `i16` range, and each with R = I and P = [K | 0] (undistortion only), a
-/// stereo R and P, a rotation that puts part of the view behind the camera, and a
-/// projection whose rays reach `w = 0` exactly on one column.
+/// stereo R and P, a rotation that puts part of the view behind the camera, a
+/// projection whose rays reach `w = 0` exactly on one column and one whose rays are so
+/// long that `r^2` overflows.
 fn regression_cases() -> Vec<RegressionCase> {
     let distortions = [
         Distortion::PlumbBob {
             coeffs: [-0.28, 0.09, 0.001, -0.0007, -0.012],
         },
         Distortion::PlumbBob {
-            coeffs: [2.0, 5.0, 0.02, -0.03, 2000.0],
+            coeffs: [2.0, 5.0, 0.02, 0.03, 2000.0],
         },
         Distortion::RationalPolynomial {
             coeffs: [0.45, -0.1, 0.0008, 0.0005, 0.02, 0.7, -0.05, 0.01],
@@ -278,7 +279,35 @@ fn regression_cases() -> Vec<RegressionCase> {
     );
     let w_zero_ir = w_zero_p.fixed_view::<3, 3>(0, 0).try_inverse().unwrap();
     assert_eq!(w_zero_ir[(2, 0)] + w_zero_ir[(2, 2)], 0.0);
+    // Rows of (P R)^-1: (0, 0, 1), (0, 1, 0), (1e-170, 0, 0): rays so long that r^2
+    // overflows to infinity while x stays finite.
+    let overflow_p = Matrix3x4::new(
+        0.0, 0.0, 1e170, 0.0, //
+        0.0, 1.0, 0.0, 0.0, //
+        1.0, 0.0, 0.0, 0.0,
+    );
     let mut cases = Vec::new();
+    // A focal length so large that scaling it to 1/32 pixel overflows; the ray of pixel
+    // (5, 3) is the optical axis, which it sends to the principal point (100, 50).
+    let mut huge = camera(distortions[0].clone());
+    huge.intrinsics = Intrinsics {
+        fx: 1e307,
+        fy: 1e307,
+        cx: 100.0,
+        cy: 50.0,
+    };
+    let axis_at_5_3 = Matrix3x4::new(
+        1.0, 0.0, 5.0, 0.0, //
+        0.0, 1.0, 3.0, 0.0, //
+        0.0, 0.0, 1.0, 0.0,
+    );
+    cases.push(RegressionCase {
+        name: "huge focal length".into(),
+        model: huge,
+        r: Matrix3::identity(),
+        p: axis_at_5_3,
+        far: true,
+    });
     for (i, distortion) in distortions.into_iter().enumerate() {
         let strong = i == 1;
         let model = camera(distortion);
@@ -289,6 +318,7 @@ fn regression_cases() -> Vec<RegressionCase> {
             ("stereo", stereo_r, stereo_p, strong),
             ("sideways", sideways, stereo_p, true),
             ("w = 0", Matrix3::identity(), w_zero_p, true),
+            ("r^2 overflows", Matrix3::identity(), overflow_p, true),
         ] {
             cases.push(RegressionCase {
                 name: format!("{name}, {geometry}"),
@@ -321,6 +351,9 @@ fn map_equals_the_per_pixel_reference_bit_for_bit() {
         let original_from_pixel = (p.fixed_view::<3, 3>(0, 0) * r).try_inverse().unwrap();
         for (width, height) in [(333, 211), (8, 3), (1, 2), (17, 5)] {
             let map = RectifyMap::new(&model, &r, &p, width, height).unwrap();
+            if name == "huge focal length" && width > 5 && height > 3 {
+                assert_eq!(map.source_position(5, 3), Some((100.0, 50.0)));
+            }
             let single = one_thread.install(|| RectifyMap::new(&model, &r, &p, width, height));
             assert_eq!(single.as_ref(), Ok(&map), "{name}: one thread differs");
             let mut far = 0;
