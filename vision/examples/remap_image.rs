@@ -71,6 +71,7 @@ impl Params {
     }
 }
 
+/// Reads the parameter file at `path`.
 fn load_params(path: &str) -> Result<Params> {
     let params: Value = serde_json::from_str(&std::fs::read_to_string(path)?)?;
     let (width, height) = (size(&params, "width")?, size(&params, "height")?);
