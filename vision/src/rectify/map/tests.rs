@@ -197,13 +197,11 @@ fn reference_position(
             let (x, y) = (rx / rw, ry / rw);
             let r = (x * x + y * y).sqrt();
             let theta = r.atan();
-            let (t2, t4) = (theta * theta, theta.powi(4));
-            let theta_d = theta
-                * (1.0
-                    + coeffs[0] * t2
-                    + coeffs[1] * t4
-                    + coeffs[2] * t4 * t2
-                    + coeffs[3] * t4 * t4);
+            let t2 = theta * theta;
+            let t4 = t2 * t2;
+            let (t6, t8) = (t4 * t2, t4 * t4);
+            let theta_d =
+                theta * (1.0 + coeffs[0] * t2 + coeffs[1] * t4 + coeffs[2] * t6 + coeffs[3] * t8);
             let scale = if r == 0.0 { 1.0 } else { theta_d / r };
             return (k.fx * x * scale + k.cx, k.fy * y * scale + k.cy);
         }
