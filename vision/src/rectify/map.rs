@@ -17,16 +17,19 @@ use nalgebra::{Matrix3, Matrix3x4};
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::camera::{CameraModel, Distortion, Intrinsics};
+use crate::camera::{CameraModel, Distortion};
 
+mod fisheye;
 mod pinhole;
 
+use fisheye::Fisheye;
 use pinhole::Pinhole;
 
 /// Bits of sub-pixel precision of a map position (OpenCV's `INTER_BITS`).
 pub const INTER_BITS: u32 = 5;
 /// Sub-pixel steps per pixel (OpenCV's `INTER_TAB_SIZE`).
 pub const INTER_TAB_SIZE: i32 = 1 << INTER_BITS;
+/// The sub-pixel bits of a position in 1/32 pixel.
 const FRACTION_MASK: i32 = INTER_TAB_SIZE - 1;
 
 /// Why a map could not be built.
@@ -122,7 +125,10 @@ impl RectifyMap {
                 })
             }
             Distortion::Equidistant { coeffs } => {
-                Self::from_fn(width, height, fisheye(ir, k, coeffs))
+                let fisheye = Fisheye::new(ir, k, coeffs, width);
+                Self::from_rows(width, height, |y, xy, fraction| {
+                    fisheye.fill_row(y, xy, fraction)
+                })
             }
         }
     }
@@ -294,39 +300,10 @@ fn fill_row<F>(
     }
 }
 
-/// The source pixel of output pixel `(x, y)` for the equidistant model, OpenCV's
-/// `fisheye::initUndistortRectifyMap` formulas; rays at or behind the image plane go to
-/// infinity (the border).
-fn fisheye(ir: [f64; 9], k: Intrinsics, d: [f64; 4]) -> impl Fn(usize, usize) -> (f64, f64) + Sync {
-    move |x, y| {
-        let (x, y) = (x as f64, y as f64);
-        let rx = ir[0] * x + ir[1] * y + ir[2];
-        let ry = ir[3] * x + ir[4] * y + ir[5];
-        let rw = ir[6] * x + ir[7] * y + ir[8];
-        if rw <= 0.0 {
-            let u = if rx > 0.0 {
-                f64::NEG_INFINITY
-            } else {
-                f64::INFINITY
-            };
-            let v = if ry > 0.0 {
-                f64::NEG_INFINITY
-            } else {
-                f64::INFINITY
-            };
-            return (u, v);
-        }
-        let (x, y) = (rx / rw, ry / rw);
-        let r = (x * x + y * y).sqrt();
-        let theta = r.atan();
-        let theta2 = theta * theta;
-        let theta4 = theta2 * theta2;
-        let theta6 = theta4 * theta2;
-        let theta8 = theta4 * theta4;
-        let theta_d = theta * (1.0 + d[0] * theta2 + d[1] * theta4 + d[2] * theta6 + d[3] * theta8);
-        let scale = if r == 0.0 { 1.0 } else { theta_d / r };
-        (k.fx * x * scale + k.cx, k.fy * y * scale + k.cy)
-    }
+/// `ir[0] x`, `ir[3] x` and `ir[6] x` for the columns `x` of a map `width` pixels wide:
+/// the terms of the ray `(P[:, :3] R)^-1 (x, y, 1)` that are the same on every row.
+fn column_products(ir: &[f64; 9], width: usize) -> [Vec<f64>; 3] {
+    [ir[0], ir[3], ir[6]].map(|a| (0..width).map(|x| a * x as f64).collect())
 }
 
 /// `round(v * 32)`, half to even like OpenCV's `cvRound`, clamped so that the integer

@@ -20,10 +20,8 @@
 
 use std::mem::MaybeUninit;
 
-use super::{INTER_BITS, INTER_TAB_SIZE, fixed_point_steps};
+use super::{FRACTION_MASK, INTER_BITS, INTER_TAB_SIZE, column_products, fixed_point_steps};
 use crate::camera::Intrinsics;
-
-const FRACTION_MASK: i32 = INTER_TAB_SIZE - 1;
 
 /// Largest magnitude of `fx, fy, cx, cy` for which the 1/32 pixel scaling is folded into
 /// them: `32 fx x + 32 cx` can then overflow only where `fx x + cx` is beyond the clamp
@@ -57,12 +55,11 @@ impl Pinhole {
     /// (plumb_bob: `k4..k6 = 0`).
     pub(super) fn new(ir: [f64; 9], k: Intrinsics, d: [f64; 8], width: usize) -> Self {
         let steps = f64::from(INTER_TAB_SIZE);
-        let column = |a: f64| (0..width).map(|x| a * x as f64).collect();
         let k = [k.fx, k.fy, k.cx, k.cy];
         let fold = k.iter().all(|v| v.abs() <= FOLD_LIMIT);
         Self {
             ir,
-            columns: [column(ir[0]), column(ir[3]), column(ir[6])],
+            columns: column_products(&ir, width),
             d,
             k_steps: if fold { k.map(|v| v * steps) } else { k },
             scale: if fold { 1.0 } else { steps },

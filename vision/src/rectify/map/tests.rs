@@ -1,4 +1,5 @@
 use super::*;
+use crate::camera::Intrinsics;
 use nalgebra::{Point3, Rotation3, Vector3};
 
 fn camera(distortion: Distortion) -> CameraModel {
