@@ -44,8 +44,9 @@ def time_opencv(image, maps, interpolation, iterations):
 
 
 def time_opencv_maps(case, iterations):
-    """initUndistortRectifyMap into preallocated maps: OpenCV's fastest way to build them,
-    without the fresh pages that new output arrays sometimes cost."""
+    """initUndistortRectifyMap (fisheye.initUndistortRectifyMap for equidistant) into
+    preallocated maps: OpenCV's fastest way to build them, without the fresh pages that
+    new output arrays sometimes cost."""
     k = np.array(case["K"], dtype=np.float64).reshape(3, 3)
     d = np.array(case["D"], dtype=np.float64)
     r = np.array(case["R"], dtype=np.float64).reshape(3, 3)
@@ -54,9 +55,14 @@ def time_opencv_maps(case, iterations):
     map1 = np.empty((case["height"], case["width"], 2), np.int16)
     map2 = np.empty((case["height"], case["width"]), np.uint16)
     times = []
+    if case["distortion_model"] == "equidistant":
+        d = d.reshape(4, 1)
+        build = cv2.fisheye.initUndistortRectifyMap
+    else:
+        build = cv2.initUndistortRectifyMap
     for _ in range(iterations):
         start = time.perf_counter()
-        cv2.initUndistortRectifyMap(k, d, r, p, size, cv2.CV_16SC2, map1, map2)
+        build(k, d, r, p, size, cv2.CV_16SC2, map1, map2)
         times.append((time.perf_counter() - start) * 1e3)
     return times
 
@@ -76,13 +82,20 @@ def main():
     parser.add_argument("--bin", help="path of a built remap_image example (release)")
     parser.add_argument("--iterations", type=int, default=100)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument(
+        "--map-models",
+        default="plumb_bob",
+        help="comma-separated distortion models whose map building is timed "
+        "(plumb_bob, rational_polynomial, equidistant); the remaps use plumb_bob",
+    )
     args = parser.parse_args()
     binary = example_binary(args.bin)
-    case = cases(WIDTH, HEIGHT)["plumb_bob"]
+    all_cases = cases(WIDTH, HEIGHT)
+    case = all_cases["plumb_bob"]
     default_threads = cv2.getNumThreads()
     print(f"OpenCV {cv2.__version__}, default threads {default_threads}, cpus {os.cpu_count()}")
     print(
-        f"{'case':32s} {'OpenCV min/median':>20s} {'stereocal min/median':>22s}"
+        f"{'case':40s} {'OpenCV min/median':>20s} {'stereocal min/median':>22s}"
         f" {'ratio min':>10s} {'ratio median':>13s}"
     )
     thread_settings = [("1 thread", 1, "1"), ("all threads", default_threads, "all")]
@@ -91,7 +104,7 @@ def main():
         cv_min, cv_median = min(cv_times), statistics.median(cv_times)
         ours_min, ours_median = min(our_min), statistics.median(our_median)
         print(
-            f"{name:32s} {cv_min:9.3f} /{cv_median:8.3f}  {ours_min:10.3f} /{ours_median:8.3f}"
+            f"{name:40s} {cv_min:9.3f} /{cv_median:8.3f}  {ours_min:10.3f} /{ours_median:8.3f}"
             f"  {cv_min / ours_min:9.2f}x {cv_median / ours_median:12.2f}x"
         )
 
@@ -103,16 +116,18 @@ def main():
             images[kind] = (image, os.path.join(tmp, f"{kind}.png"))
             cv2.imwrite(images[kind][1], image if channels == 1 else image[..., ::-1])
         # Map building: N fixed-point maps per round on each side.
-        write_params(params, case, "bilinear")
-        for threads_name, cv_threads, our_threads in thread_settings:
-            cv_times, our_min, our_median = [], [], []
-            for _ in range(args.rounds):
-                cv2.setNumThreads(cv_threads)
-                cv_times += time_opencv_maps(case, args.iterations)
-                ours = time_ours(binary, params, images["mono8"][1], args.iterations, our_threads)
-                our_min.append(ours["map_ms_min"])
-                our_median.append(ours["map_ms_median"])
-            report(f"map build {threads_name}", cv_times, our_min, our_median)
+        for model in args.map_models.split(","):
+            map_case = all_cases[model]
+            write_params(params, map_case, "bilinear")
+            for threads_name, cv_threads, our_threads in thread_settings:
+                cv_times, our_min, our_median = [], [], []
+                for _ in range(args.rounds):
+                    cv2.setNumThreads(cv_threads)
+                    cv_times += time_opencv_maps(map_case, args.iterations)
+                    ours = time_ours(binary, params, images["mono8"][1], args.iterations, our_threads)
+                    our_min.append(ours["map_ms_min"])
+                    our_median.append(ours["map_ms_median"])
+                report(f"map build {model} {threads_name}", cv_times, our_min, our_median)
         # Remap with one map, built once per side.
         for kind, (image, image_path) in images.items():
             for interpolation in ["bilinear", "nearest"]:
