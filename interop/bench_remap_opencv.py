@@ -3,16 +3,17 @@ and the same camera (plumb_bob with a rectification R and a new projection P, fr
 check_remap_opencv.py), one thread and all threads, side by side in one run.
 
     .venv/bin/python interop/bench_remap_opencv.py [--bin PATH] [--iterations 100] [--rounds 3]
+        [--map-models plumb_bob,rational_polynomial,equidistant]
 
 stereocal runs through the `remap_image` example in its timing mode (`--bench N`), which
 builds the fixed-point map N times and remaps N times into a reused output, on one
 thread (`--threads 1`) or all threads. OpenCV builds its fixed-point maps
 (initUndistortRectifyMap, CV_16SC2 + CV_16UC1) N times into preallocated arrays and
 remaps into a preallocated `dst`, with cv2.setNumThreads(1) and with its default thread
-count. Rounds
-alternate between the two so that load from other processes hits both alike. Prints the
-minimum and median times in milliseconds and the ratio OpenCV / stereocal of the minima
-and of the medians (above 1: stereocal is faster).
+count. `--map-models` times map building for the other cameras of check_remap_opencv.py
+too. Rounds alternate between the two sides so that load from other processes hits both
+alike. Prints the minimum and median times in milliseconds and the ratio OpenCV /
+stereocal of the minima and of the medians (above 1: stereocal is faster).
 """
 
 import argparse
