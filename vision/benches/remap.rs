@@ -1,6 +1,6 @@
 //! Remap and map building on a 1920x1080 undistort/rectify map (plumb_bob, a small
 //! rectification rotation), mono8 and rgb8, one thread and all threads of the rayon
-//! pool. The camera is `cases(1920, 1080)` of `interop/check_remap_opencv.py`, which
+//! pool (map building on one thread: in a rayon pool of one thread). The camera is `cases(1920, 1080)` of `interop/check_remap_opencv.py`, which
 //! `interop/bench_remap_opencv.py` times against OpenCV side by side.
 // A benchmark on fixed inputs: an input that fails is a bug to see at once.
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::panic)]
@@ -97,7 +97,18 @@ fn bench_map(c: &mut Criterion) {
             }),
         ),
     ];
+    let one_thread = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("a thread pool");
     for (name, model) in models {
+        group.bench_function(format!("{name}/1_thread"), |b| {
+            b.iter(|| {
+                one_thread.install(|| {
+                    RectifyMap::new(black_box(&model), &r, &p, WIDTH, HEIGHT).expect("valid camera")
+                })
+            })
+        });
         group.bench_function(format!("{name}/all_threads"), |b| {
             b.iter(|| {
                 RectifyMap::new(black_box(&model), &r, &p, WIDTH, HEIGHT).expect("valid camera")

@@ -12,8 +12,10 @@
 //! "D": [...], "R": [9 values], "P": [12 values], "interpolation": "bilinear"}`
 //! (`interpolation`: `nearest`, `bilinear` or `bicubic`). `--map` also writes the map as
 //! raw little-endian OpenCV `CV_16SC2` then `CV_16UC1` planes. `--bench N` builds the map
-//! once, remaps N times and prints one JSON line with the map building time and the
-//! median and minimum remap times in milliseconds.
+//! N times and remaps N times, on one thread (`--threads 1`: the map in a rayon pool of
+//! one thread, the remap with `Parallelism::Single`) or on all of the rayon pool's
+//! threads (`--threads all`, the default), and prints one JSON line with the median and
+//! minimum map building and remap times in milliseconds.
 
 use std::error::Error;
 use std::time::Instant;
@@ -23,7 +25,7 @@ use serde_json::Value;
 use stereocal_vision::camera::{CameraModel, Distortion, DistortionModel, Intrinsics};
 use stereocal_vision::image::{Image, Samples};
 use stereocal_vision::rectify::{
-    Interpolation, Parallelism, RectifyMap, RemapOptions, remap, remap_into,
+    Interpolation, MapError, Parallelism, RectifyMap, RemapOptions, remap, remap_into,
 };
 
 type Result<T> = std::result::Result<T, Box<dyn Error>>;
@@ -53,8 +55,24 @@ fn size(params: &Value, key: &str) -> Result<usize> {
         .ok_or_else(|| format!("params: `{key}` must be a non-negative integer").into())
 }
 
-/// The map and remap options the parameter file describes.
-fn load_params(path: &str) -> Result<(RectifyMap, Interpolation)> {
+/// What the parameter file describes: a camera_info and the remap settings.
+struct Params {
+    camera: CameraModel,
+    r: Matrix3<f64>,
+    p: Matrix3x4<f64>,
+    interpolation: Interpolation,
+}
+
+impl Params {
+    /// The undistort/rectify map of the camera_info, at the camera's size.
+    fn map(&self) -> std::result::Result<RectifyMap, MapError> {
+        let (width, height) = (self.camera.width as usize, self.camera.height as usize);
+        RectifyMap::new(&self.camera, &self.r, &self.p, width, height)
+    }
+}
+
+/// Reads the parameter file at `path`.
+fn load_params(path: &str) -> Result<Params> {
     let params: Value = serde_json::from_str(&std::fs::read_to_string(path)?)?;
     let (width, height) = (size(&params, "width")?, size(&params, "height")?);
     let model_name = params["distortion_model"]
@@ -80,10 +98,12 @@ fn load_params(path: &str) -> Result<(RectifyMap, Interpolation)> {
         intrinsics: Intrinsics::from_matrix(&k),
         distortion,
     };
-    Ok((
-        RectifyMap::new(&camera, &r, &p, width, height)?,
+    Ok(Params {
+        camera,
+        r,
+        p,
         interpolation,
-    ))
+    })
 }
 
 fn read_png(path: &str) -> Result<Image> {
@@ -132,32 +152,52 @@ fn write_map(path: &str, map: &RectifyMap) -> Result<()> {
     Ok(())
 }
 
+/// The median and minimum of `times`, in place.
+fn median_and_min(times: &mut [f64]) -> (f64, f64) {
+    times.sort_by(f64::total_cmp);
+    (times[times.len() / 2], times[0])
+}
+
 fn bench(
     src: &Image,
     params_path: &str,
     iterations: usize,
     parallelism: Parallelism,
 ) -> Result<()> {
-    let start = Instant::now();
-    let (map, interpolation) = load_params(params_path)?;
-    let map_ms = start.elapsed().as_secs_f64() * 1e3;
+    let threads = match parallelism {
+        Parallelism::Single => 1,
+        Parallelism::Rayon => rayon::current_num_threads(),
+    };
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()?;
+    let iterations = iterations.max(1);
+    let params = load_params(params_path)?;
+    let mut map = params.map()?;
+    let mut map_times = Vec::with_capacity(iterations);
+    for _ in 0..iterations {
+        let start = Instant::now();
+        // Built in the pool, so that one thread means one thread; the previous map is
+        // dropped outside the timed region.
+        let built = pool.install(|| params.map())?;
+        map_times.push(start.elapsed().as_secs_f64() * 1e3);
+        map = built;
+    }
     let options = RemapOptions {
-        interpolation,
+        interpolation: params.interpolation,
         parallelism,
     };
     let mut dst = remap(src, &map, options)?;
     let mut times = Vec::with_capacity(iterations);
-    for _ in 0..iterations.max(1) {
+    for _ in 0..iterations {
         let start = Instant::now();
-        remap_into(src, &map, &mut dst, options)?;
+        pool.install(|| remap_into(src, &map, &mut dst, options))?;
         times.push(start.elapsed().as_secs_f64() * 1e3);
     }
-    times.sort_by(f64::total_cmp);
+    let (map_median, map_min) = median_and_min(&mut map_times);
+    let (remap_median, remap_min) = median_and_min(&mut times);
     println!(
-        "{{\"map_ms\": {map_ms:.4}, \"remap_ms_median\": {:.4}, \"remap_ms_min\": {:.4}, \"iterations\": {}}}",
-        times[times.len() / 2],
-        times[0],
-        times.len()
+        "{{\"map_ms_median\": {map_median:.4}, \"map_ms_min\": {map_min:.4}, \"remap_ms_median\": {remap_median:.4}, \"remap_ms_min\": {remap_min:.4}, \"iterations\": {iterations}}}"
     );
     Ok(())
 }
@@ -181,7 +221,8 @@ fn main() -> Result<()> {
             bench(&src, params_path, iterations, parallelism)
         }
         [output, more @ ..] => {
-            let (map, interpolation) = load_params(params_path)?;
+            let params = load_params(params_path)?;
+            let map = params.map()?;
             if let [flag, map_path] = more {
                 if flag != "--map" {
                     return Err(usage.into());
@@ -194,7 +235,7 @@ fn main() -> Result<()> {
                 &src,
                 &map,
                 RemapOptions {
-                    interpolation,
+                    interpolation: params.interpolation,
                     parallelism: Parallelism::Rayon,
                 },
             )?;

@@ -11,16 +11,25 @@
 //! 1/64 pixel of the exact one. Positions farther than 32767 pixels from the origin are
 //! clamped to the `i16` range; they lie outside any image and sample the border.
 
+use std::mem::MaybeUninit;
+
 use nalgebra::{Matrix3, Matrix3x4};
 use rayon::prelude::*;
 use thiserror::Error;
 
-use crate::camera::{CameraModel, Distortion, Intrinsics};
+use crate::camera::{CameraModel, Distortion};
+
+mod fisheye;
+mod pinhole;
+
+use fisheye::Fisheye;
+use pinhole::Pinhole;
 
 /// Bits of sub-pixel precision of a map position (OpenCV's `INTER_BITS`).
 pub const INTER_BITS: u32 = 5;
 /// Sub-pixel steps per pixel (OpenCV's `INTER_TAB_SIZE`).
 pub const INTER_TAB_SIZE: i32 = 1 << INTER_BITS;
+/// The sub-pixel bits of a position in 1/32 pixel.
 const FRACTION_MASK: i32 = INTER_TAB_SIZE - 1;
 
 /// Why a map could not be built.
@@ -98,21 +107,28 @@ impl RectifyMap {
             .as_slice()
             .try_into()
             .map_err(|_| MapError::SingularProjection)?;
-        // One monomorphized per-pixel function per model keeps the model dispatch out of
-        // the pixel loop.
+        // Before the column tables are sized by `width`.
+        check_size(width, height)?;
         match camera.distortion {
             Distortion::PlumbBob {
                 coeffs: [k1, k2, p1, p2, k3],
-            } => Self::from_fn(
-                width,
-                height,
-                pinhole(ir, k, [k1, k2, p1, p2, k3, 0.0, 0.0, 0.0]),
-            ),
+            } => {
+                let pinhole = Pinhole::new(ir, k, [k1, k2, p1, p2, k3, 0.0, 0.0, 0.0], width);
+                Self::from_rows(width, height, |y, xy, fraction| {
+                    pinhole.fill_row(y, xy, fraction)
+                })
+            }
             Distortion::RationalPolynomial { coeffs } => {
-                Self::from_fn(width, height, pinhole(ir, k, coeffs))
+                let pinhole = Pinhole::new(ir, k, coeffs, width);
+                Self::from_rows(width, height, |y, xy, fraction| {
+                    pinhole.fill_row(y, xy, fraction)
+                })
             }
             Distortion::Equidistant { coeffs } => {
-                Self::from_fn(width, height, fisheye(ir, k, coeffs))
+                let fisheye = Fisheye::new(ir, k, coeffs, width);
+                Self::from_rows(width, height, |y, xy, fraction| {
+                    fisheye.fill_row(y, xy, fraction)
+                })
             }
         }
     }
@@ -137,24 +153,40 @@ impl RectifyMap {
     where
         F: Fn(usize, usize) -> (f64, f64) + Sync,
     {
-        let max_side = i16::MAX as usize;
-        if width == 0 || height == 0 || width > max_side || height > max_side {
-            return Err(MapError::InvalidSize { width, height });
-        }
-        let mut xy = vec![[0i16; 2]; width * height];
-        let mut fraction = vec![0u16; width * height];
-        xy.par_chunks_mut(width)
-            .zip(fraction.par_chunks_mut(width))
+        Self::from_rows(width, height, |y, xy_row, fraction_row| {
+            #[cfg(target_arch = "x86_64")]
+            if std::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU supports AVX2.
+                unsafe { fill_row_avx2(&source, y, xy_row, fraction_row) };
+                return;
+            }
+            fill_row(&source, y, xy_row, fraction_row);
+        })
+    }
+
+    /// A map whose row `y` is written by `fill_row(y, xy, fraction)`, which must write
+    /// every element of both (uninitialized) slices. Rows are filled in parallel on the
+    /// current rayon pool.
+    fn from_rows<F>(width: usize, height: usize, fill_row: F) -> Result<Self, MapError>
+    where
+        F: Fn(usize, &mut [MaybeUninit<[i16; 2]>], &mut [MaybeUninit<u16>]) + Sync,
+    {
+        check_size(width, height)?;
+        let len = width * height;
+        let mut xy: Vec<[i16; 2]> = Vec::with_capacity(len);
+        let mut fraction: Vec<u16> = Vec::with_capacity(len);
+        // Every element is written once below, so the tables are not zeroed first.
+        xy.spare_capacity_mut()[..len]
+            .par_chunks_mut(width)
+            .zip(fraction.spare_capacity_mut()[..len].par_chunks_mut(width))
             .enumerate()
-            .for_each(|(y, (xy_row, fraction_row))| {
-                #[cfg(target_arch = "x86_64")]
-                if std::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU supports AVX2.
-                    unsafe { fill_row_avx2(&source, y, xy_row, fraction_row) };
-                    return;
-                }
-                fill_row(&source, y, xy_row, fraction_row);
-            });
+            .for_each(|(y, (xy_row, fraction_row))| fill_row(y, xy_row, fraction_row));
+        // SAFETY: the capacity is `len`, and `fill_row` has written all `len` elements of
+        // both tables, one row of `width` at a time.
+        unsafe {
+            xy.set_len(len);
+            fraction.set_len(len);
+        }
         Ok(Self {
             width,
             height,
@@ -201,6 +233,15 @@ impl RectifyMap {
     }
 }
 
+/// Refuses a map size that is empty or too large for 16-bit map coordinates.
+fn check_size(width: usize, height: usize) -> Result<(), MapError> {
+    let max_side = i16::MAX as usize;
+    if width == 0 || height == 0 || width > max_side || height > max_side {
+        return Err(MapError::InvalidSize { width, height });
+    }
+    Ok(())
+}
+
 /// [`fill_row`] compiled for AVX2: four doubles per instruction instead of two. The
 /// arithmetic is the same IEEE operations (no fused multiply-add), so the map is
 /// identical.
@@ -209,8 +250,12 @@ impl RectifyMap {
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn fill_row_avx2<F>(source: &F, y: usize, xy_row: &mut [[i16; 2]], fraction_row: &mut [u16])
-where
+unsafe fn fill_row_avx2<F>(
+    source: &F,
+    y: usize,
+    xy_row: &mut [MaybeUninit<[i16; 2]>],
+    fraction_row: &mut [MaybeUninit<u16>],
+) where
     F: Fn(usize, usize) -> (f64, f64),
 {
     fill_row(source, y, xy_row, fraction_row);
@@ -220,8 +265,12 @@ where
 /// converted to fixed point in a second pass, so both loops are free of calls and
 /// branches and the compiler can vectorize them.
 #[inline(always)]
-fn fill_row<F>(source: &F, y: usize, xy_row: &mut [[i16; 2]], fraction_row: &mut [u16])
-where
+fn fill_row<F>(
+    source: &F,
+    y: usize,
+    xy_row: &mut [MaybeUninit<[i16; 2]>],
+    fraction_row: &mut [MaybeUninit<u16>],
+) where
     F: Fn(usize, usize) -> (f64, f64),
 {
     const CHUNK: usize = 64;
@@ -245,75 +294,28 @@ where
         {
             let (iu, iv) = (fixed_point(u), fixed_point(v));
             // The clamp in `fixed_point` keeps both integer parts in i16.
-            *xy_px = [(iu >> INTER_BITS) as i16, (iv >> INTER_BITS) as i16];
-            *fraction_px = (((iv & FRACTION_MASK) << INTER_BITS) | (iu & FRACTION_MASK)) as u16;
+            xy_px.write([(iu >> INTER_BITS) as i16, (iv >> INTER_BITS) as i16]);
+            fraction_px.write((((iv & FRACTION_MASK) << INTER_BITS) | (iu & FRACTION_MASK)) as u16);
         }
     }
 }
 
-/// The source pixel of output pixel `(x, y)` for the pinhole models, OpenCV's
-/// `initUndistortRectifyMap` formulas: `ir` is `(P[:, :3] * R)^-1` row-major, `d` the
-/// rational_polynomial coefficients `k1 k2 p1 p2 k3 k4 k5 k6` (plumb_bob: `k4..k6 = 0`).
-/// The ray is divided by its `z` whatever its sign, as OpenCV does.
-fn pinhole(ir: [f64; 9], k: Intrinsics, d: [f64; 8]) -> impl Fn(usize, usize) -> (f64, f64) + Sync {
-    let [k1, k2, p1, p2, k3, k4, k5, k6] = d;
-    #[inline(always)]
-    move |x, y| {
-        let (x, y) = (x as f64, y as f64);
-        let rx = ir[0] * x + ir[1] * y + ir[2];
-        let ry = ir[3] * x + ir[4] * y + ir[5];
-        let rw = ir[6] * x + ir[7] * y + ir[8];
-        let w = 1.0 / rw;
-        let (x, y) = (rx * w, ry * w);
-        let (x2, y2) = (x * x, y * y);
-        let r2 = x2 + y2;
-        let xy2 = 2.0 * x * y;
-        let kr = (1.0 + ((k3 * r2 + k2) * r2 + k1) * r2) / (1.0 + ((k6 * r2 + k5) * r2 + k4) * r2);
-        let xd = x * kr + p1 * xy2 + p2 * (r2 + 2.0 * x2);
-        let yd = y * kr + p1 * (r2 + 2.0 * y2) + p2 * xy2;
-        (k.fx * xd + k.cx, k.fy * yd + k.cy)
-    }
-}
-
-/// The source pixel of output pixel `(x, y)` for the equidistant model, OpenCV's
-/// `fisheye::initUndistortRectifyMap` formulas; rays at or behind the image plane go to
-/// infinity (the border).
-fn fisheye(ir: [f64; 9], k: Intrinsics, d: [f64; 4]) -> impl Fn(usize, usize) -> (f64, f64) + Sync {
-    move |x, y| {
-        let (x, y) = (x as f64, y as f64);
-        let rx = ir[0] * x + ir[1] * y + ir[2];
-        let ry = ir[3] * x + ir[4] * y + ir[5];
-        let rw = ir[6] * x + ir[7] * y + ir[8];
-        if rw <= 0.0 {
-            let u = if rx > 0.0 {
-                f64::NEG_INFINITY
-            } else {
-                f64::INFINITY
-            };
-            let v = if ry > 0.0 {
-                f64::NEG_INFINITY
-            } else {
-                f64::INFINITY
-            };
-            return (u, v);
-        }
-        let (x, y) = (rx / rw, ry / rw);
-        let r = (x * x + y * y).sqrt();
-        let theta = r.atan();
-        let theta2 = theta * theta;
-        let theta4 = theta2 * theta2;
-        let theta6 = theta4 * theta2;
-        let theta8 = theta4 * theta4;
-        let theta_d = theta * (1.0 + d[0] * theta2 + d[1] * theta4 + d[2] * theta6 + d[3] * theta8);
-        let scale = if r == 0.0 { 1.0 } else { theta_d / r };
-        (k.fx * x * scale + k.cx, k.fy * y * scale + k.cy)
-    }
+/// `ir[0] x`, `ir[3] x` and `ir[6] x` for the columns `x` of a map `width` pixels wide:
+/// the terms of the ray `(P[:, :3] R)^-1 (x, y, 1)` that are the same on every row.
+fn column_products(ir: &[f64; 9], width: usize) -> [Vec<f64>; 3] {
+    [ir[0], ir[3], ir[6]].map(|a| (0..width).map(|x| a * x as f64).collect())
 }
 
 /// `round(v * 32)`, half to even like OpenCV's `cvRound`, clamped so that the integer
 /// part fits in `i16`; NaN goes far outside any image.
 #[inline(always)]
 fn fixed_point(v: f64) -> i32 {
+    fixed_point_steps(v * f64::from(INTER_TAB_SIZE))
+}
+
+/// [`fixed_point`] of a position already in 1/32 pixel.
+#[inline(always)]
+fn fixed_point_steps(steps: f64) -> i32 {
     // 1.5 * 2^52: adding it to a value of magnitude below 2^51 rounds to an integer (ties
     // to even) held in the low mantissa bits, which read as two's complement.
     const ROUND: f64 = 6_755_399_441_055_744.0;
@@ -321,172 +323,9 @@ fn fixed_point(v: f64) -> i32 {
     let hi = f64::from(i32::from(i16::MAX) * INTER_TAB_SIZE + FRACTION_MASK);
     // `max` maps NaN to `lo`. Clamping before rounding keeps the same result, since the
     // bounds are integers, and keeps the value in the range of the rounding trick.
-    let clamped = (v * f64::from(INTER_TAB_SIZE)).max(lo).min(hi);
+    let clamped = steps.max(lo).min(hi);
     (clamped + ROUND).to_bits() as u32 as i32
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use nalgebra::{Point3, Rotation3, Vector3};
-
-    fn camera(distortion: Distortion) -> CameraModel {
-        CameraModel {
-            width: 320,
-            height: 240,
-            intrinsics: Intrinsics {
-                fx: 260.0,
-                fy: 255.0,
-                cx: 161.3,
-                cy: 118.7,
-            },
-            distortion,
-        }
-    }
-
-    fn models() -> Vec<CameraModel> {
-        vec![
-            camera(Distortion::PlumbBob {
-                coeffs: [-0.28, 0.09, 0.001, -0.0007, -0.012],
-            }),
-            camera(Distortion::RationalPolynomial {
-                coeffs: [0.45, -0.1, 0.0008, 0.0005, 0.02, 0.7, -0.05, 0.01],
-            }),
-            camera(Distortion::Equidistant {
-                coeffs: [-0.012, 0.004, -0.002, 0.0004],
-            }),
-        ]
-    }
-
-    /// Every stored position is within half a fixed-point step of the camera's own
-    /// projection of the ray that the output pixel back-projects to.
-    #[test]
-    fn map_matches_projection_of_back_projected_rays() {
-        let rectified_from_original = *Rotation3::from_euler_angles(0.02, -0.03, 0.01).matrix();
-        let projection = Matrix3x4::new(
-            230.0, 0.0, 150.0, -23.0, //
-            0.0, 230.0, 125.0, 0.0, //
-            0.0, 0.0, 1.0, 0.0,
-        );
-        let pixel_from_rectified = projection.fixed_view::<3, 3>(0, 0).into_owned();
-        let rectified_from_pixel = pixel_from_rectified.try_inverse().unwrap();
-        for model in models() {
-            let map =
-                RectifyMap::new(&model, &rectified_from_original, &projection, 300, 250).unwrap();
-            let mut checked = 0;
-            for y in 0..map.height() {
-                for x in 0..map.width() {
-                    let ray_rectified =
-                        rectified_from_pixel * Vector3::new(x as f64, y as f64, 1.0);
-                    let ray = rectified_from_original.transpose() * ray_rectified;
-                    let expected = model.project(&Point3::from(ray)).unwrap();
-                    let (u, v) = map.source_position(x, y).unwrap();
-                    let tolerance = 0.5 / 32.0 + 1e-9;
-                    assert!(
-                        (u - expected.x).abs() <= tolerance && (v - expected.y).abs() <= tolerance,
-                        "{:?} at ({x}, {y}): map ({u}, {v}) vs projection {expected}",
-                        model.distortion.model()
-                    );
-                    checked += 1;
-                }
-            }
-            assert_eq!(checked, 300 * 250);
-        }
-    }
-
-    #[test]
-    fn fixed_point_layout_matches_opencv() {
-        let map = RectifyMap::from_fn(2, 1, |x, _| {
-            if x == 0 {
-                (3.5, -0.25)
-            } else {
-                (-1.0 / 64.0, 7.0)
-            }
-        })
-        .unwrap();
-        assert_eq!(map.xy(), &[[3, -1], [0, 7]]);
-        // 3.5 -> 112 = 3*32 + 16; -0.25 -> -8 = -1*32 + 24. -1/64 rounds to even 0.
-        assert_eq!(map.fraction(), &[(24 << 5) | 16, 0]);
-        assert_eq!(map.source_position(0, 0), Some((3.5, -0.25)));
-    }
-
-    #[test]
-    fn fixed_point_rounds_half_to_even() {
-        let half_step = 1.0 / 64.0;
-        assert_eq!(fixed_point(half_step), 0);
-        assert_eq!(fixed_point(3.0 * half_step), 2);
-        assert_eq!(fixed_point(-half_step), 0);
-        assert_eq!(fixed_point(-3.0 * half_step), -2);
-        assert_eq!(fixed_point(100.3), 3210);
-        assert_eq!(fixed_point(-1e300), i32::from(i16::MIN) * 32);
-        assert_eq!(fixed_point(1e300), i32::from(i16::MAX) * 32 + 31);
-    }
-
-    #[test]
-    fn far_and_non_finite_positions_are_clamped() {
-        let map = RectifyMap::from_fn(3, 1, |x, _| match x {
-            0 => (1e9, -1e9),
-            1 => (f64::NAN, f64::INFINITY),
-            _ => (f64::NEG_INFINITY, 2.0),
-        })
-        .unwrap();
-        assert_eq!(map.xy()[0], [i16::MAX, i16::MIN]);
-        assert_eq!(map.xy()[1], [i16::MIN, i16::MAX]);
-        assert_eq!(map.xy()[2], [i16::MIN, 2]);
-    }
-
-    #[test]
-    fn fisheye_rays_behind_the_camera_go_to_the_border() {
-        let model = models().pop().unwrap();
-        // A rotation of 180 degrees about y puts the whole view behind the camera.
-        let behind = *Rotation3::from_euler_angles(0.0, std::f64::consts::PI, 0.0).matrix();
-        let projection = model.intrinsics.matrix().insert_column(3, 0.0);
-        let map = RectifyMap::new(&model, &behind, &projection, 8, 8).unwrap();
-        assert!(
-            map.xy()
-                .iter()
-                .all(|p| p[0] == i16::MAX || p[0] == i16::MIN)
-        );
-    }
-
-    #[test]
-    fn bad_parameters_are_rejected() {
-        let model = models().remove(0);
-        let projection = model.intrinsics.matrix().insert_column(3, 0.0);
-        let identity = Matrix3::identity();
-        assert_eq!(
-            RectifyMap::new(&model, &identity, &projection, 0, 10),
-            Err(MapError::InvalidSize {
-                width: 0,
-                height: 10
-            })
-        );
-        assert_eq!(
-            RectifyMap::new(&model, &Matrix3::zeros(), &projection, 10, 10),
-            Err(MapError::SingularProjection)
-        );
-        let mut nan_r = identity;
-        nan_r[(1, 2)] = f64::NAN;
-        assert_eq!(
-            RectifyMap::new(&model, &nan_r, &projection, 10, 10),
-            Err(MapError::NonFinite("rectification matrix R"))
-        );
-        let mut uncalibrated = model.clone();
-        uncalibrated.intrinsics.fx = 0.0;
-        assert!(matches!(
-            RectifyMap::new(&uncalibrated, &identity, &projection, 10, 10),
-            Err(MapError::InvalidFocalLength { .. })
-        ));
-    }
-
-    #[test]
-    fn undistort_without_distortion_is_the_identity() {
-        let model = camera(Distortion::none());
-        let map = RectifyMap::undistort(&model).unwrap();
-        assert_eq!((map.width(), map.height()), (320, 240));
-        for (i, (xy, f)) in map.xy().iter().zip(map.fraction()).enumerate() {
-            assert_eq!(*xy, [(i % 320) as i16, (i / 320) as i16]);
-            assert_eq!(*f, 0);
-        }
-    }
-}
+mod tests;
