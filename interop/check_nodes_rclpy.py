@@ -18,7 +18,10 @@ nodes around it would see:
   runs), and with `image_transport: compressed`, fed PNG (mono8, rgb8) and JPEG
   CompressedImage on `image_raw/compressed`, equals OpenCV's remap of the image (PNG,
   within 1) or of OpenCV's imdecode of the JPEG (within 2), logging a truncated JPEG and
-  going on; calibrate_node, fed a synthesized stereo session (`stereocal synth`) from
+  going on; its image_rect/compressed, while subscribed, is JPEG by default and PNG once
+  `image_rect.compressed.format` is set to png, and OpenCV's imdecode of it equals
+  image_rect (PNG) or differs from it on average no more than OpenCV's own JPEG of it at
+  the same quality does (within 10 %); calibrate_node, fed a synthesized stereo session (`stereocal synth`) from
   rclpy, calibrates on `~/calibrate` within 0.2 px (fx, fy, cx, cy), 0.1 degree and 1 mm
   (right_from_left) of the session's ground truth, and `~/commit` writes camera_info
   YAML that PyYAML reads back with the same numbers, while rclpy's set_camera_info
@@ -282,6 +285,7 @@ class Rectify:
         self.info_pub = node.create_publisher(CameraInfo, "/cam/camera_info", RELIABLE)
         self.reliable = peer.subscribe(Image, "/cam/image_rect", RELIABLE)
         self.sensor = peer.subscribe(Image, "/cam/image_rect", qos_profile_sensor_data)
+        self.compressed = peer.subscribe(CompressedImage, "/cam/image_rect/compressed", RELIABLE)
         self.events = peer.subscribe(ParameterEvent, "/parameter_events",
                                      qos_profile_parameter_events)
         self.process = NodeProcess(
@@ -314,6 +318,50 @@ class Rectify:
             lambda: stamps.append(self.send(raw)), received,
             lambda: f"image_rect of a frame on both subscribers (so far reliable "
                     f"{self.reliable.count}, best-effort {self.sensor.count})")
+
+
+def exchange_compressed(r, raw):
+    """Sends `raw` through the Rectify `r` until its image_rect and image_rect/compressed
+    both arrived; returns them."""
+    stamps = []
+
+    def received():
+        for stamp in stamps:
+            rect = next((m for m in r.reliable.messages if stamp_of(m) == stamp), None)
+            packed = next((m for m in r.compressed.messages if stamp_of(m) == stamp), None)
+            if rect is not None and packed is not None:
+                return rect, packed
+        return None
+    return r.peer.send_until(lambda: stamps.append(r.send(raw)), received,
+                             "image_rect and image_rect/compressed of a frame")
+
+
+def compressed_difference(rect, packed):
+    """Mean and largest |OpenCV's imdecode of image_rect/compressed - image_rect| in grey
+    levels."""
+    channels = 3 if rect.encoding == "rgb8" else 1
+    pixels_rect = np.frombuffer(bytes(rect.data), np.uint8).reshape(
+        rect.height, rect.width, channels)
+    decoded = cv2.imdecode(np.frombuffer(bytes(packed.data), np.uint8), cv2.IMREAD_UNCHANGED)
+    require(decoded is not None, f"OpenCV cannot decode image_rect/compressed ({packed.format!r})")
+    decoded = decoded.reshape(rect.height, rect.width, channels)
+    if channels == 3:
+        decoded = decoded[..., ::-1]
+    difference = np.abs(decoded.astype(int) - pixels_rect.astype(int))
+    return float(difference.mean()), int(difference.max())
+
+
+def opencv_jpeg_difference(rect, quality):
+    """Mean |imdecode(imencode(image_rect, JPEG quality)) - image_rect| with OpenCV: the
+    loss the JPEG of image_rect/compressed is held to."""
+    channels = 3 if rect.encoding == "rgb8" else 1
+    pixels_rect = np.frombuffer(bytes(rect.data), np.uint8).reshape(
+        rect.height, rect.width, channels)
+    bgr = pixels_rect if channels == 1 else np.ascontiguousarray(pixels_rect[..., ::-1])
+    ok, jpeg = cv2.imencode(".jpg", bgr, [cv2.IMWRITE_JPEG_QUALITY, quality])
+    require(ok, "cv2.imencode failed")
+    decoded = cv2.imdecode(jpeg, cv2.IMREAD_UNCHANGED).reshape(bgr.shape)
+    return float(np.abs(decoded.astype(int) - bgr.astype(int)).mean())
 
 
 class RectifyCompressed:
@@ -364,6 +412,8 @@ def check_rectify_compressed(checks, peer, rosout, binary):
         with checks.check(label, "graph: image_raw/compressed subscribed"):
             graph_check(peer, r.name, r.namespace, {
                 "publishers": {"/camz/image_rect": ["sensor_msgs/msg/Image"],
+                               "/camz/image_rect/compressed":
+                                   ["sensor_msgs/msg/CompressedImage"],
                                "/rosout": ["rcl_interfaces/msg/Log"],
                                "/parameter_events": ["rcl_interfaces/msg/ParameterEvent"]},
                 "subscribers": {"/camz/image_raw/compressed": ["sensor_msgs/msg/CompressedImage"],
@@ -442,6 +492,8 @@ def check_rectify(checks, peer, rosout, binary):
         with checks.check(label, "graph: topics, services and their types"):
             graph_check(peer, r.name, r.namespace, {
                 "publishers": {"/cam/image_rect": ["sensor_msgs/msg/Image"],
+                               "/cam/image_rect/compressed":
+                                   ["sensor_msgs/msg/CompressedImage"],
                                "/rosout": ["rcl_interfaces/msg/Log"],
                                "/parameter_events": ["rcl_interfaces/msg/ParameterEvent"]},
                 "subscribers": {"/cam/image_raw": ["sensor_msgs/msg/Image"],
@@ -471,9 +523,44 @@ def check_rectify(checks, peer, rosout, binary):
             require(worst <= 1, f"image_rect differs from OpenCV (bilinear) by {worst}")
             note(f"4 frames (mono8, rgb8) on each; |image_rect - OpenCV bilinear| <= {worst}")
 
+        with checks.check(label, "image_rect/compressed while subscribed: JPEG (quality 95) "
+                                 "by default, PNG once image_rect.compressed.format is png; "
+                                 "OpenCV's imdecode against image_rect") as note:
+            found = {}
+            for codec in ("jpeg", "png"):
+                if codec == "png":
+                    [result] = r.params.set({"image_rect.compressed.format": "png"})
+                    require(result.successful, f"set format=png refused: {result.reason!r}")
+                for channels, encoding in ((1, "mono8"), (3, "rgb8")):
+                    rect, packed = exchange_compressed(r, pixels(40 + channels, channels))
+                    stored = "mono8" if channels == 1 else "bgr8"
+                    want = f"{encoding}; {codec} compressed {stored}"
+                    require(packed.format == want, f"format {packed.format!r}, not {want!r}")
+                    require(packed.header.frame_id == rect.header.frame_id, "header differs")
+                    found[(codec, encoding)] = compressed_difference(rect, packed)
+                    if codec == "jpeg":
+                        found[("opencv", encoding)] = opencv_jpeg_difference(rect, 95)
+            png = [found[("png", e)] for e in ("mono8", "rgb8")]
+            jpeg = [found[("jpeg", e)] for e in ("mono8", "rgb8")]
+            require(all(m == 0 for _, m in png), f"PNG differs from image_rect: {png}")
+            opencv = [found[("opencv", e)] for e in ("mono8", "rgb8")]
+            # As lossy as OpenCV's own JPEG of image_rect at the same quality, give or
+            # take the encoders' differences.
+            require(all(mean <= 1.1 * cv for (mean, _), cv in zip(jpeg, opencv)),
+                    f"JPEG mean difference from image_rect {jpeg}, OpenCV's at quality 95 "
+                    f"{opencv}")
+            note("PNG equal to image_rect; JPEG mean difference " + ", ".join(
+                f"{e} {mean:.2f} (OpenCV's imencode {cv:.2f})"
+                for e, (mean, _), cv in zip(("mono8", "rgb8"), jpeg, opencv)))
+
         common_parameter_checks(
-            checks, label, r.params, {"interpolation": 1, "queue_size": 5},
-            read_only=["queue_size"], constraints={}, refuse=["queue_size"])
+            checks, label, r.params, {"interpolation": 1, "queue_size": 5,
+                                      "image_rect.compressed.format": "png",
+                                      "image_rect.compressed.jpeg_quality": 95,
+                                      "image_rect.compressed.png_level": 3},
+            read_only=["queue_size"],
+            constraints={"image_rect.compressed.format": ["jpeg", "png"]},
+            refuse=["queue_size"])
 
         with checks.check(label, "parameters: set interpolation 0 takes effect (nearest)") \
                 as note:

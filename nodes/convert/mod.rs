@@ -7,6 +7,7 @@
 //! naming the field, the value found and the value expected.
 
 mod camera_info;
+mod compress;
 mod compressed;
 mod image;
 mod pose;
@@ -15,6 +16,7 @@ pub use camera_info::{
     CalibratedCamera, CameraInfoError, calibrated_camera_from_info, info_from_calibrated,
     info_from_raw_camera,
 };
+pub use compress::{CompressError, Compression, compressed_from_image_msg};
 pub use compressed::{
     Codec, CompressedError, Format, ImageKind, base_topic, image_msg_from_compressed,
 };

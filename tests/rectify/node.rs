@@ -304,7 +304,10 @@ fn parameters_are_served_described_and_checked() {
             "use_sim_time",
             "interpolation",
             "queue_size",
-            "image_transport"
+            "image_transport",
+            "image_rect.compressed.format",
+            "image_rect.compressed.jpeg_quality",
+            "image_rect.compressed.png_level"
         ]
     );
 
