@@ -18,9 +18,10 @@ use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg, PointCloud2};
 use stereocal_msgs::stereo_msgs::DisparityImage;
-use stereocal_rosbag::{BagReader, BagWriter, OfferedQos, TopicFilter, TopicId, WriterOptions};
+use stereocal_rosbag::{BagReader, BagWriter, OfferedQos, TopicFilter, TopicId};
 use stereocal_vision::stereo::{Paths, SgmParams};
 
+use super::output_bag::create_output_bag;
 use crate::depth::stage::{DepthStage, disparity_msg, points_msg};
 
 /// Images per side that may wait for their partner.
@@ -171,14 +172,7 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
         }
     }
 
-    let mut writer = BagWriter::create_with(
-        &args.out,
-        WriterOptions {
-            overwrite: args.overwrite,
-            ..WriterOptions::default()
-        },
-    )
-    .with_context(|| format!("creating {}", args.out.display()))?;
+    let mut writer = create_output_bag(&args.out, args.overwrite, false)?;
     let copy_ids = writer.add_topics_of(reader.topics())?;
     let disparity_id =
         writer.add_message_topic::<DisparityImage>(&disparity_topic, &OfferedQos::default())?;

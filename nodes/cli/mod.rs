@@ -7,6 +7,7 @@ pub mod depth;
 pub mod handeye;
 pub mod image_topics;
 pub mod node;
+mod output_bag;
 pub mod play;
 pub mod pose;
 pub mod rectify;

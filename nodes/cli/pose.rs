@@ -22,12 +22,13 @@ use stereocal_msgs::geometry_msgs::{PoseStamped, TransformStamped};
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_msgs::tf2_msgs::TFMessage;
-use stereocal_rosbag::{BagMessage, BagReader, BagWriter, OfferedQos, TopicFilter, WriterOptions};
+use stereocal_rosbag::{BagMessage, BagReader, OfferedQos, TopicFilter};
 use stereocal_vision::board::PatternArgs;
 use stereocal_vision::pnp::PoseOptions;
 
 use super::calibrate::CharucoArgs;
 use super::image_topics::{image_kind, image_topics};
+use super::output_bag::create_output_bag;
 use crate::convert::{ImageKind, base_topic, pose_msg, transform_msg};
 use crate::pose::record::FrameRecord;
 use crate::pose::stage::{FramePose, PoseRejection, PoseStage};
@@ -233,14 +234,7 @@ pub fn pose_bag(args: &PoseArgs, progress: &ProgressBar) -> anyhow::Result<PoseR
     if reader.topic(&pose_topic_name).is_some() {
         bail!("the input bag already has {pose_topic_name}");
     }
-    let mut writer = BagWriter::create_with(
-        &args.out,
-        WriterOptions {
-            overwrite: args.overwrite,
-            ..WriterOptions::default()
-        },
-    )
-    .with_context(|| format!("creating {}", args.out.display()))?;
+    let mut writer = create_output_bag(&args.out, args.overwrite, false)?;
     let copy_ids = writer.add_topics_of(reader.topics())?;
     let pose_topic =
         writer.add_message_topic::<PoseStamped>(&pose_topic_name, &OfferedQos::default())?;

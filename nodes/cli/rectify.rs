@@ -21,6 +21,7 @@ use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
 use super::calibrate::CharucoArgs;
 use super::image_topics::image_topics;
+use super::output_bag::create_output_bag;
 use super::rectify_uncalibrated::{
     MatchSource, UncalibratedOptions, print_summary as print_uncalibrated_summary,
     rectify_bag_uncalibrated,
@@ -28,9 +29,7 @@ use super::rectify_uncalibrated::{
 use crate::convert::{ImageKind, base_topic};
 use crate::rectify::matches::read_points_file;
 use crate::rectify::stage::{Rectified, Rectifier};
-use stereocal_rosbag::{
-    BagReader, BagWriter, ChunkCompression, TopicFilter, TopicId, WriterOptions,
-};
+use stereocal_rosbag::{BagReader, BagWriter, TopicFilter, TopicId};
 
 /// Images per camera that may wait for a camera_info with their stamp.
 const MAX_PENDING: usize = 4;
@@ -210,30 +209,45 @@ pub fn run(args: &RectifyArgs) -> anyhow::Result<()> {
             Ok((topic.clone(), calibration.info))
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
-    let interpolation = Interpolation::from_ros_parameter(args.interpolation)
-        .with_context(|| format!("--interpolation {}: expected 0, 1 or 2", args.interpolation))?;
     let options = BagRectifyOptions {
         camera_infos,
-        remap: RemapOptions {
-            interpolation,
-            ..RemapOptions::default()
-        },
+        remap: remap_options(args)?,
         overwrite: args.overwrite,
         uncompressed: args.uncompressed,
     };
-    let progress = ProgressBar::new(0).with_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} frames ({per_sec}, eta {eta})",
-        )
-        .context("progress bar template")?,
-    );
+    let progress = progress_bar("frames")?;
     let report = rectify_bag(&args.bag, &args.out, &options, &progress)?;
     progress.finish_and_clear();
     print_summary(&report);
-    if let Some(damage) = &report.damage {
+    fail_on_damage(report.damage.as_deref(), &report.output)
+}
+
+/// The remap options of `--interpolation`.
+fn remap_options(args: &RectifyArgs) -> anyhow::Result<RemapOptions> {
+    let interpolation = Interpolation::from_ros_parameter(args.interpolation)
+        .with_context(|| format!("--interpolation {}: expected 0, 1 or 2", args.interpolation))?;
+    Ok(RemapOptions {
+        interpolation,
+        ..RemapOptions::default()
+    })
+}
+
+/// The progress bar of a run that counts `unit`.
+fn progress_bar(unit: &str) -> anyhow::Result<ProgressBar> {
+    let template = format!(
+        "{{spinner}} [{{elapsed_precise}}] {{bar:40}} {{pos}}/{{len}} {unit} ({{per_sec}}, eta {{eta}})"
+    );
+    Ok(ProgressBar::new(0)
+        .with_style(ProgressStyle::with_template(&template).context("progress bar template")?))
+}
+
+/// An error when the input bag's `damage` ended the run early; `output` still holds
+/// everything before it.
+fn fail_on_damage(damage: Option<&str>, output: &Path) -> anyhow::Result<()> {
+    if let Some(damage) = damage {
         bail!(
             "the input bag is damaged ({damage}); {} holds everything before the damage",
-            report.output.display()
+            output.display()
         );
     }
     Ok(())
@@ -264,36 +278,20 @@ fn run_uncalibrated(args: &RectifyArgs) -> anyhow::Result<()> {
             "--uncalibrated needs matched points: a target (--pattern P --size CxR --square S) or --points FILE"
         ),
     };
-    let interpolation = Interpolation::from_ros_parameter(args.interpolation)
-        .with_context(|| format!("--interpolation {}: expected 0, 1 or 2", args.interpolation))?;
     let options = UncalibratedOptions {
         left: args.left.clone(),
         right: args.right.clone(),
         source,
         threshold: args.threshold,
-        remap: RemapOptions {
-            interpolation,
-            ..RemapOptions::default()
-        },
+        remap: remap_options(args)?,
         overwrite: args.overwrite,
         uncompressed: args.uncompressed,
     };
-    let progress = ProgressBar::new(0).with_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} images ({per_sec}, eta {eta})",
-        )
-        .context("progress bar template")?,
-    );
+    let progress = progress_bar("images")?;
     let report = rectify_bag_uncalibrated(&args.bag, &args.out, &options, &progress)?;
     progress.finish_and_clear();
     print_uncalibrated_summary(&report);
-    if let Some(damage) = &report.damage {
-        bail!(
-            "the input bag is damaged ({damage}); {} holds everything before the damage",
-            report.output.display()
-        );
-    }
-    Ok(())
+    fail_on_damage(report.damage.as_deref(), &report.output)
 }
 
 fn print_summary(report: &BagRectifyReport) {
@@ -396,19 +394,7 @@ pub fn rectify_bag(
 ) -> anyhow::Result<BagRectifyReport> {
     let started = Instant::now();
     let reader = BagReader::open(input).with_context(|| format!("opening {}", input.display()))?;
-    let mut writer = BagWriter::create_with(
-        output,
-        WriterOptions {
-            overwrite: options.overwrite,
-            compression: if options.uncompressed {
-                ChunkCompression::None
-            } else {
-                ChunkCompression::Zstd
-            },
-            ..WriterOptions::default()
-        },
-    )
-    .with_context(|| format!("creating {}", output.display()))?;
+    let mut writer = create_output_bag(output, options.overwrite, options.uncompressed)?;
 
     let copy_ids = writer.add_topics_of(reader.topics())?;
     let (mut cameras, unrectified_topics) = plan_cameras(&reader, options, &mut writer)?;

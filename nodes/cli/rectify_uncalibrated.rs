@@ -20,15 +20,14 @@ use nalgebra::{Matrix3, Point2};
 use stereocal_msgs::RosMessage;
 use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
-use stereocal_rosbag::{
-    BagReader, BagWriter, ChunkCompression, TopicFilter, TopicId, WriterOptions,
-};
+use stereocal_rosbag::{BagReader, BagWriter, TopicFilter, TopicId};
 use stereocal_vision::board::{Target, detector_for};
 use stereocal_vision::calib::quality::FrameChecks;
 use stereocal_vision::geometry::{RobustOptions, find_fundamental};
 use stereocal_vision::rectify::{RemapOptions, UncalibratedRectification, rectify_uncalibrated};
 
 use super::image_topics::{image_kind, image_topics};
+use super::output_bag::create_output_bag;
 use super::rectify::{Problem, Problems, namespace};
 use crate::calibrate::offline::{CameraTopic, judge_bag_frames};
 use crate::convert::{ImageKind, base_topic};
@@ -432,19 +431,7 @@ impl<'a> WarpPass<'a> {
         rectification: &UncalibratedRectification,
         progress: &'a ProgressBar,
     ) -> anyhow::Result<Self> {
-        let mut writer = BagWriter::create_with(
-            output,
-            WriterOptions {
-                overwrite: options.overwrite,
-                compression: if options.uncompressed {
-                    ChunkCompression::None
-                } else {
-                    ChunkCompression::Zstd
-                },
-                ..WriterOptions::default()
-            },
-        )
-        .with_context(|| format!("creating {}", output.display()))?;
+        let mut writer = create_output_bag(output, options.overwrite, options.uncompressed)?;
         let copy_ids = writer.add_topics_of(reader.topics())?;
         let homographies = [
             &rectification.rectified_left_from_image_left,
