@@ -64,6 +64,8 @@ pub struct CircleGridDetector {
     grid: CircleGrid,
     layout: CircleLayout,
     target: Target,
+    /// The circles' board positions in units of the spacing, by id.
+    plane: Vec<Point2<f64>>,
 }
 
 impl CircleGridDetector {
@@ -77,6 +79,7 @@ impl CircleGridDetector {
             grid: *grid,
             layout,
             target: target.clone(),
+            plane: board_plane(target, grid.spacing),
         })
     }
 
@@ -104,10 +107,9 @@ impl CircleGridDetector {
             .enumerate()
             .map(|(id, e)| e.centre().ok_or(CircleGridMiss::Unlocated(id)))
             .collect::<Result<Vec<_>, _>>()?;
-        let plane = board_plane(&self.target, self.grid.spacing);
         let mut centres = observed.clone();
         for _ in 0..BIAS_ROUNDS {
-            centres = self.corrected(&plane, &ellipses, &observed, &centres);
+            centres = self.corrected(&ellipses, &observed, &centres);
         }
         Ok(Detection {
             ids: (0..centres.len()).collect(),
@@ -121,12 +123,11 @@ impl CircleGridDetector {
     /// its ellipse centre.
     fn corrected(
         &self,
-        plane: &[Point2<f64>],
         ellipses: &[Ellipse],
         observed: &[Point2<f64>],
         centres: &[Point2<f64>],
     ) -> Vec<Point2<f64>> {
-        let maps = local_maps(self.grid.cols, self.grid.rows, plane, centres);
+        let maps = local_maps(self.grid.cols, self.grid.rows, &self.plane, centres);
         let radius = board_radius(ellipses, &maps);
         observed
             .iter()

@@ -212,7 +212,9 @@ pub fn circle_blur(
     let mut row_widths = Vec::new();
     let mut column_widths = Vec::new();
     for (id, centre) in centres.iter().enumerate() {
-        let along_x = (id % cols + 1 < cols).then(|| centres[id + 1] - centre);
+        let along_x = (id % cols + 1 < cols)
+            .then(|| centres.get(id + 1).map(|c| c - centre))
+            .flatten();
         let along_y = centres.get(id + below).map(|c| c - centre);
         let neighbour = centres.get(id + nearest).map(|c| (c - centre).norm());
         let (Some(x), Some(y), Some(neighbour)) = (along_x, along_y, neighbour) else {
