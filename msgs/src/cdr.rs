@@ -92,17 +92,40 @@ pub fn to_bytes<T: Serialize>(value: &T) -> Result<Vec<u8>, CdrError> {
 /// Never panics and never allocates more than the input could hold: every length
 /// prefix is checked against the bytes that remain before anything is read.
 pub fn from_bytes<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, CdrError> {
+    decode(bytes, Rest::Refused)
+}
+
+/// Decodes the leading fields of a CDR sample as `T` and ignores the rest: `T` is a
+/// prefix of the sample's type, as `std_msgs/Header` is of every stamped message. The
+/// same checks as [`from_bytes`] hold for what is read.
+pub fn prefix_from_bytes<T: DeserializeOwned>(bytes: &[u8]) -> Result<T, CdrError> {
+    decode(bytes, Rest::Ignored)
+}
+
+/// What to do with bytes after the decoded value.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Rest {
+    /// More than alignment padding is an error.
+    Refused,
+    /// They belong to fields not decoded.
+    Ignored,
+}
+
+fn decode<T: DeserializeOwned>(bytes: &[u8], rest: Rest) -> Result<T, CdrError> {
     if bytes.len() < HEADER_LEN {
         return Err(CdrError::MissingHeader { len: bytes.len() });
     }
     match [bytes[0], bytes[1]] {
-        [0x00, 0x01] => decode_body::<T, LittleEndian>(bytes),
-        [0x00, 0x00] => decode_body::<T, BigEndian>(bytes),
+        [0x00, 0x01] => decode_body::<T, LittleEndian>(bytes, rest),
+        [0x00, 0x00] => decode_body::<T, BigEndian>(bytes, rest),
         id => Err(CdrError::UnsupportedEncapsulation { id }),
     }
 }
 
-fn decode_body<T: DeserializeOwned, BO: ByteOrder>(bytes: &[u8]) -> Result<T, CdrError> {
+fn decode_body<T: DeserializeOwned, BO: ByteOrder>(
+    bytes: &[u8],
+    rest: Rest,
+) -> Result<T, CdrError> {
     let type_name = std::any::type_name::<T>();
     let body = &bytes[HEADER_LEN..];
     let mut deserializer = cdr_encoding::CdrDeserializer::<BO>::new(body);
@@ -122,7 +145,7 @@ fn decode_body<T: DeserializeOwned, BO: ByteOrder>(bytes: &[u8]) -> Result<T, Cd
     })?;
     let consumed = deserializer.bytes_consumed();
     let trailing = body.len() - consumed;
-    if trailing > MAX_TRAILING_PADDING {
+    if rest == Rest::Refused && trailing > MAX_TRAILING_PADDING {
         return Err(CdrError::TrailingBytes {
             type_name,
             offset: HEADER_LEN + consumed,

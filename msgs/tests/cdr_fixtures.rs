@@ -391,6 +391,27 @@ fn trailing_alignment_padding_is_accepted_but_more_is_not() {
 }
 
 #[test]
+fn the_header_of_a_stamped_message_decodes_alone() {
+    for (bytes, frame_id) in [
+        (fixture!("sensor_msgs__msg__Image"), "cam"),
+        (fixture!("sensor_msgs__msg__CompressedImage"), "cam"),
+        (fixture!("sensor_msgs__msg__CameraInfo"), "left"),
+    ] {
+        let decoded: Header = cdr::prefix_from_bytes(bytes).expect("header");
+        assert_eq!(decoded, header(frame_id));
+        assert!(matches!(
+            cdr::from_bytes::<Header>(bytes),
+            Err(CdrError::TrailingBytes { .. })
+        ));
+    }
+    let truncated = &fixture!("sensor_msgs__msg__Image")[..12];
+    assert!(matches!(
+        cdr::prefix_from_bytes::<Header>(truncated),
+        Err(CdrError::Malformed { .. })
+    ));
+}
+
+#[test]
 fn big_endian_samples_decode() {
     let time = Time {
         sec: -2,

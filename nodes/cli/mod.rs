@@ -8,6 +8,7 @@ pub mod handeye;
 pub mod image_topics;
 pub mod node;
 mod output_bag;
+mod pipeline;
 pub mod play;
 pub mod pose;
 pub mod rectify;

@@ -8,6 +8,7 @@
 
 use std::collections::VecDeque;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
@@ -16,19 +17,23 @@ use stereocal_msgs::RosMessage;
 use stereocal_msgs::camera_info_file::CameraInfoFile;
 use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
+use stereocal_msgs::std_msgs::Header;
 use stereocal_vision::board::PatternArgs;
+use stereocal_vision::image::Image;
+use stereocal_vision::rectify::RectifyMap;
 use stereocal_vision::rectify::{Interpolation, RemapOptions};
 
 use super::calibrate::CharucoArgs;
 use super::image_topics::image_topics;
 use super::output_bag::create_output_bag;
+use super::pipeline::{self, Output};
 use super::rectify_uncalibrated::{
     MatchSource, UncalibratedOptions, print_summary as print_uncalibrated_summary,
     rectify_bag_uncalibrated,
 };
 use crate::convert::{ImageKind, base_topic};
 use crate::rectify::matches::read_points_file;
-use crate::rectify::stage::{Rectified, Rectifier};
+use crate::rectify::stage::{Plan, Rectifier, remap_image_msg};
 use stereocal_rosbag::{BagReader, BagWriter, TopicFilter, TopicId};
 
 /// Images per camera that may wait for a camera_info with their stamp.
@@ -328,7 +333,15 @@ enum InfoSource {
     Fixed(Box<CameraInfo>),
 }
 
-/// One image topic being rectified.
+/// An image waiting for its camera_info: its times and stamp, still encoded.
+struct PendingImage {
+    log_time_ns: u64,
+    publish_time_ns: u64,
+    header: Header,
+    data: Arc<Vec<u8>>,
+}
+
+/// One image topic being rectified, as the processing stage sees it.
 struct Camera {
     image_topic: String,
     /// Raw or compressed images.
@@ -340,11 +353,30 @@ struct Camera {
     source: InfoSource,
     source_label: String,
     recent_infos: VecDeque<CameraInfo>,
-    /// Images waiting for their camera_info, with their log and publish times.
-    pending: VecDeque<(u64, u64, ImageMsg)>,
+    /// Images waiting for their camera_info.
+    pending: VecDeque<PendingImage>,
     rectifier: Rectifier,
     frames: u64,
-    rectified: u64,
+}
+
+/// What the processing stage hands the writer for one message.
+enum Outcome {
+    /// What became of an image of camera `camera`.
+    Frame {
+        camera: usize,
+        log_time_ns: u64,
+        publish_time_ns: u64,
+        /// The rectified image's CDR bytes, nothing for an uncalibrated camera_info
+        /// (with the warning to give once), or why the image was skipped.
+        result: Result<Option<Vec<u8>>, String>,
+        warning: Option<String>,
+    },
+    /// A message that could not be used.
+    Problem {
+        topic: String,
+        log_time_ns: u64,
+        reason: String,
+    },
 }
 
 /// Collects problems: printed as they happen (above the progress bar), the first ones
@@ -401,59 +433,114 @@ pub fn rectify_bag(
     progress
         .set_length(reader.topics_message_count(cameras.iter().map(|c| c.image_topic.as_str())));
 
+    let outputs: Vec<(String, TopicId)> = cameras
+        .iter()
+        .map(|c| (c.image_topic.clone(), c.rect_id))
+        .collect();
+    let mut rectified = vec![0; cameras.len()];
     let mut problems = Problems::new(progress);
-    let mut copied = 0;
-    let mut damage = None;
-    for message in reader.messages(&TopicFilter::All) {
-        let message = match message {
-            Ok(message) => message,
-            Err(e) => {
-                damage = Some(e.to_string());
-                break;
+    let write = |outcome: Outcome, writer: &mut BagWriter| -> anyhow::Result<()> {
+        match outcome {
+            Outcome::Frame {
+                camera,
+                log_time_ns,
+                publish_time_ns,
+                result,
+                warning,
+            } => {
+                let (topic, rect_id) = &outputs[camera];
+                progress.inc(1);
+                if let Some(warning) = warning {
+                    problems.report(topic, log_time_ns, warning);
+                }
+                match result {
+                    Ok(Some(data)) => {
+                        writer.write_timed(*rect_id, log_time_ns, publish_time_ns, &data)?;
+                        rectified[camera] += 1;
+                    }
+                    Ok(None) => {}
+                    Err(reason) => problems.report(topic, log_time_ns, reason),
+                }
             }
-        };
-        if let Some(&id) = copy_ids.get(&*message.topic) {
-            writer.write_timed(
-                id,
-                message.log_time_ns,
-                message.publish_time_ns,
-                &message.data,
-            )?;
-            copied += 1;
+            Outcome::Problem {
+                topic,
+                log_time_ns,
+                reason,
+            } => problems.report(&topic, log_time_ns, reason),
         }
-        for camera in cameras.iter_mut() {
-            if *message.topic == camera.image_topic {
-                camera.frames += 1;
-                match camera.kind.decode(&message.data) {
-                    Ok(image) => camera.pending.push_back((
+        Ok(())
+    };
+    let remap = options.remap;
+    let ((copied, damage), writer) = pipeline::run(
+        reader.messages(&TopicFilter::All),
+        writer,
+        write,
+        |messages, out| {
+            let mut copied = 0;
+            let mut damage = None;
+            for message in messages {
+                let message = match message {
+                    Ok(message) => message,
+                    Err(e) => {
+                        damage = Some(e.to_string());
+                        break;
+                    }
+                };
+                let data = Arc::new(message.data);
+                if let Some(&id) = copy_ids.get(&*message.topic) {
+                    out.copy(
+                        id,
                         message.log_time_ns,
                         message.publish_time_ns,
-                        image,
-                    )),
-                    Err(e) => {
-                        problems.report(&message.topic, message.log_time_ns, e);
-                        progress.inc(1);
-                    }
+                        data.clone(),
+                    )?;
+                    copied += 1;
                 }
-            } else if matches!(&camera.source, InfoSource::Topic(t) if *t == *message.topic) {
-                match cdr::from_bytes::<CameraInfo>(&message.data) {
-                    Ok(info) => {
-                        if camera.recent_infos.len() == RECENT_INFOS {
-                            camera.recent_infos.pop_front();
+                for (index, camera) in cameras.iter_mut().enumerate() {
+                    if *message.topic == camera.image_topic {
+                        camera.frames += 1;
+                        match cdr::prefix_from_bytes::<Header>(&data) {
+                            Ok(header) => camera.pending.push_back(PendingImage {
+                                log_time_ns: message.log_time_ns,
+                                publish_time_ns: message.publish_time_ns,
+                                header,
+                                data: data.clone(),
+                            }),
+                            Err(e) => out.ready(Outcome::Frame {
+                                camera: index,
+                                log_time_ns: message.log_time_ns,
+                                publish_time_ns: message.publish_time_ns,
+                                result: Err(e.to_string()),
+                                warning: None,
+                            })?,
                         }
-                        camera.recent_infos.push_back(info);
+                    } else if matches!(&camera.source, InfoSource::Topic(t) if *t == *message.topic)
+                    {
+                        match cdr::from_bytes::<CameraInfo>(&data) {
+                            Ok(info) => {
+                                if camera.recent_infos.len() == RECENT_INFOS {
+                                    camera.recent_infos.pop_front();
+                                }
+                                camera.recent_infos.push_back(info);
+                            }
+                            Err(e) => out.ready(Outcome::Problem {
+                                topic: message.topic.to_string(),
+                                log_time_ns: message.log_time_ns,
+                                reason: e.to_string(),
+                            })?,
+                        }
+                    } else {
+                        continue;
                     }
-                    Err(e) => problems.report(&message.topic, message.log_time_ns, e.to_string()),
+                    camera.drain(index, false, remap, out)?;
                 }
-            } else {
-                continue;
             }
-            camera.drain(false, &mut writer, &mut problems)?;
-        }
-    }
-    for camera in cameras.iter_mut() {
-        camera.drain(true, &mut writer, &mut problems)?;
-    }
+            for (index, camera) in cameras.iter_mut().enumerate() {
+                camera.drain(index, true, remap, out)?;
+            }
+            Ok((copied, damage))
+        },
+    )?;
     let output = writer
         .finish()
         .with_context(|| format!("finishing {}", output.display()))?;
@@ -461,12 +548,13 @@ pub fn rectify_bag(
         output,
         topics: cameras
             .iter()
-            .map(|c| TopicReport {
+            .zip(rectified)
+            .map(|(c, rectified)| TopicReport {
                 image_topic: c.image_topic.clone(),
                 rect_topic: c.rect_topic.clone(),
                 camera_info_source: c.source_label.clone(),
                 frames: c.frames,
-                rectified: c.rectified,
+                rectified,
                 map_builds: c.rectifier.map_builds() as u64,
             })
             .collect(),
@@ -586,21 +674,22 @@ fn plan_cameras(
             pending: VecDeque::new(),
             rectifier: Rectifier::new(options.remap),
             frames: 0,
-            rectified: 0,
         });
     }
     Ok((cameras, unrectified))
 }
 
 impl Camera {
-    /// Rectifies the waiting images that can be paired now; with `finish`, all of them.
+    /// Queues the waiting images that can be paired with a camera_info now (with
+    /// `finish`, all of them) to be rectified on the pool. This is camera `index`.
     fn drain(
         &mut self,
+        index: usize,
         finish: bool,
-        writer: &mut BagWriter,
-        problems: &mut Problems<'_>,
+        remap: RemapOptions,
+        out: &Output<'_, '_, Outcome>,
     ) -> anyhow::Result<()> {
-        while let Some((_, _, image)) = self.pending.front() {
+        while let Some(image) = self.pending.front() {
             let stamp = image.header.stamp;
             let info = match &self.source {
                 InfoSource::Fixed(info) => Some(info.as_ref()),
@@ -623,35 +712,51 @@ impl Camera {
                     }
                 }
             };
-            let Some((log_time_ns, publish_time_ns, image)) = self.pending.pop_front() else {
+            let Some(image) = self.pending.pop_front() else {
                 break;
             };
-            problems.progress.inc(1);
+            let (log_time_ns, publish_time_ns) = (image.log_time_ns, image.publish_time_ns);
+            let frame = move |result, warning| Outcome::Frame {
+                camera: index,
+                log_time_ns,
+                publish_time_ns,
+                result,
+                warning,
+            };
             let Some(info) = info else {
-                problems.report(
-                    &self.image_topic,
-                    log_time_ns,
-                    format!("no camera_info on {} before this image", self.source_label),
-                );
+                let reason = format!("no camera_info on {} before this image", self.source_label);
+                out.ready(frame(Err(reason), None))?;
                 continue;
             };
-            match self.rectifier.rectify(&image, info) {
-                Ok(Rectified::Image(rect)) => {
-                    let data = cdr::to_bytes(&rect)
-                        .with_context(|| format!("encoding {}", self.rect_topic))?;
-                    writer.write_timed(self.rect_id, log_time_ns, publish_time_ns, &data)?;
-                    self.rectified += 1;
+            match self.rectifier.plan(&image.header.frame_id, info) {
+                Ok(Plan::Remap(map)) => {
+                    let kind = self.kind;
+                    out.spawn(move || {
+                        frame(rectify_encoded(kind, &image.data, &map, remap), None)
+                    })?;
                 }
-                Ok(Rectified::Uncalibrated { warning }) => {
-                    if let Some(warning) = warning {
-                        problems.report(&self.image_topic, log_time_ns, warning);
-                    }
-                }
-                Err(e) => problems.report(&self.image_topic, log_time_ns, e.to_string()),
+                Ok(Plan::Uncalibrated { warning }) => out.ready(frame(Ok(None), warning))?,
+                Err(e) => out.ready(frame(Err(e.to_string()), None))?,
             }
         }
         Ok(())
     }
+}
+
+/// The CDR bytes of the rectified image of a CDR image message of `kind`, or why there
+/// are none.
+fn rectify_encoded(
+    kind: ImageKind,
+    data: &[u8],
+    map: &RectifyMap,
+    remap: RemapOptions,
+) -> Result<Option<Vec<u8>>, String> {
+    let image = kind.decode(data)?;
+    let mut source = Image::zeros_u8(0, 0, 1);
+    let mut rectified = Image::zeros_u8(0, 0, 1);
+    let rect = remap_image_msg(&image, map, remap, &mut source, &mut rectified)
+        .map_err(|e| e.to_string())?;
+    cdr::to_bytes(&rect).map(Some).map_err(|e| e.to_string())
 }
 
 /// The namespace of a topic: everything before its last `/`.

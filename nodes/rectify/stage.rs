@@ -2,6 +2,8 @@
 //! `sensor_msgs/Image` and its `sensor_msgs/CameraInfo` in, the rectified image out,
 //! like image_proc's RectifyNode.
 
+use std::sync::Arc;
+
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_vision::image::{Image, Samples};
 use stereocal_vision::rectify::{MapError, RectifyMap, RemapError, RemapOptions, remap_into};
@@ -62,13 +64,13 @@ pub enum Rectified {
 #[derive(Default)]
 struct MapCache {
     /// The camera_info (header cleared) the map was built from, and the map.
-    cached: Option<(CameraInfo, RectifyMap)>,
+    cached: Option<(CameraInfo, Arc<RectifyMap>)>,
     builds: usize,
 }
 
 impl MapCache {
     /// The map of `info`, built only when `info` differs from the cached one.
-    fn get(&mut self, info: &CameraInfo) -> Result<&RectifyMap, RectifyError> {
+    fn get(&mut self, info: &CameraInfo) -> Result<&Arc<RectifyMap>, RectifyError> {
         let cached = match self.cached.take() {
             Some(cached) if same_calibration(&cached.0, info) => cached,
             _ => {
@@ -85,7 +87,7 @@ impl MapCache {
                     header: Default::default(),
                     ..info.clone()
                 };
-                (key, map)
+                (key, Arc::new(map))
             }
         };
         Ok(&self.cached.insert(cached).1)
@@ -132,35 +134,70 @@ impl Rectifier {
         image: &ImageMsg,
         info: &CameraInfo,
     ) -> Result<Rectified, RectifyError> {
+        match self.plan(&image.header.frame_id, info)? {
+            Plan::Uncalibrated { warning } => Ok(Rectified::Uncalibrated { warning }),
+            Plan::Remap(map) => Ok(Rectified::Image(remap_image_msg(
+                image,
+                &map,
+                self.options,
+                &mut self.source,
+                &mut self.rectified,
+            )?)),
+        }
+    }
+
+    /// What a frame of `frame_id` with `info` needs, for callers that remap on other
+    /// threads with [`remap_image_msg`]: the map (built only when `info` changed), or
+    /// nothing when `info` is uncalibrated. Frames must be planned in their order, for
+    /// the warning about an uncalibrated camera_info is given once.
+    pub fn plan(&mut self, frame_id: &str, info: &CameraInfo) -> Result<Plan, RectifyError> {
         if info.k[0] == 0.0 {
             let warning = (!self.warned_uncalibrated).then(|| {
                 format!(
-                    "camera_info of frame {:?} is uncalibrated (K[0] == 0): publishing no rectified images until a calibrated camera_info arrives",
-                    image.header.frame_id
+                    "camera_info of frame {frame_id:?} is uncalibrated (K[0] == 0): publishing no rectified images until a calibrated camera_info arrives"
                 )
             });
             self.warned_uncalibrated = true;
-            return Ok(Rectified::Uncalibrated { warning });
+            return Ok(Plan::Uncalibrated { warning });
         }
         self.warned_uncalibrated = false;
-        if (image.width, image.height) != (info.width, info.height) {
-            return Err(RectifyError::SizeMismatch {
-                image_width: image.width,
-                image_height: image.height,
-                info_width: info.width,
-                info_height: info.height,
-            });
-        }
-        let map = self.maps.get(info)?;
-        let encoding = decode_image_into(image, &mut self.source)?;
-        shape_like(&mut self.rectified, &self.source, map);
-        remap_into(&self.source, map, &mut self.rectified, self.options)?;
-        Ok(Rectified::Image(msg_from_image(
-            &self.rectified,
-            encoding,
-            image.header.clone(),
-        )?))
+        Ok(Plan::Remap(self.maps.get(info)?.clone()))
     }
+}
+
+/// What [`Rectifier::plan`] decided for a frame.
+pub enum Plan {
+    /// Remap the frame with this map.
+    Remap(Arc<RectifyMap>),
+    /// Publish nothing: the camera_info is uncalibrated (see [`Rectified::Uncalibrated`]).
+    Uncalibrated {
+        /// The message to log, only the first time.
+        warning: Option<String>,
+    },
+}
+
+/// Rectifies `image` with `map`, decoding it into `source` and remapping into
+/// `rectified` (both reshaped as needed, so that buffers can be reused from frame to
+/// frame). The output has the input's encoding and header and the map's size.
+pub fn remap_image_msg(
+    image: &ImageMsg,
+    map: &RectifyMap,
+    options: RemapOptions,
+    source: &mut Image,
+    rectified: &mut Image,
+) -> Result<ImageMsg, RectifyError> {
+    if (image.width as usize, image.height as usize) != (map.width(), map.height()) {
+        return Err(RectifyError::SizeMismatch {
+            image_width: image.width,
+            image_height: image.height,
+            info_width: map.width() as u32,
+            info_height: map.height() as u32,
+        });
+    }
+    let encoding = decode_image_into(image, source)?;
+    shape_like(rectified, source, map);
+    remap_into(source, map, rectified, options)?;
+    Ok(msg_from_image(rectified, encoding, image.header.clone())?)
 }
 
 /// Whether two camera_infos give the same map: every field but the header.

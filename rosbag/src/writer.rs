@@ -19,7 +19,7 @@ use stereocal_msgs::RosMessage;
 /// How chunks are compressed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum ChunkCompression {
-    /// zstd, as `ros2 bag record --storage-preset-profile zstd_fast` writes.
+    /// zstd at [`WriterOptions::zstd_level`].
     Zstd,
     /// Uncompressed chunks (rosbag2's default).
     None,
@@ -30,6 +30,12 @@ pub enum ChunkCompression {
 pub struct WriterOptions {
     /// Chunk compression.
     pub compression: ChunkCompression,
+    /// zstd level (1 fastest to 22 smallest; 0 is zstd's default, 3).
+    pub zstd_level: u32,
+    /// Threads that compress zstd chunks beside the writing thread (zstd's
+    /// multithreaded mode); 0 compresses on the writing thread. The bytes written are
+    /// the same for any number above 0, but differ from those of 0.
+    pub compression_threads: u32,
     /// Uncompressed size, in bytes, at which a chunk is closed.
     pub chunk_size: u64,
     /// For a bag directory: start a new `.mcap` file once the current one reaches this
@@ -40,11 +46,13 @@ pub struct WriterOptions {
 }
 
 impl Default for WriterOptions {
-    /// zstd chunks of 768 KiB (the chunk size of rosbag2's MCAP writer), no splitting,
-    /// no overwriting.
+    /// zstd chunks of 768 KiB (the chunk size of rosbag2's MCAP writer) at zstd's default
+    /// level, compressed on the writing thread; no splitting, no overwriting.
     fn default() -> Self {
         Self {
             compression: ChunkCompression::Zstd,
+            zstd_level: 0,
+            compression_threads: 0,
             chunk_size: 768 * 1024,
             split_size: None,
             overwrite: false,
@@ -430,8 +438,8 @@ impl BagWriter {
             .library(concat!("stereocal ", env!("CARGO_PKG_VERSION")))
             .compression(compression)
             .chunk_size(Some(self.options.chunk_size))
-            // One compression thread: output is the same whatever the machine.
-            .compression_threads(0)
+            .compression_level(self.options.zstd_level)
+            .compression_threads(self.options.compression_threads)
             .create(sink)
             .map_err(|e| mcap_error(&path, e))?;
         let channels = self

@@ -162,6 +162,28 @@ fn bare_mcap_file_round_trips_uncompressed_and_zstd() {
 }
 
 #[test]
+fn chunks_compressed_by_zstd_workers_read_back_and_do_not_depend_on_their_number() {
+    let mut files = Vec::new();
+    for threads in [1, 3] {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let path = dir.path().join("capture.mcap");
+        let options = WriterOptions {
+            zstd_level: 1,
+            compression_threads: threads,
+            ..small_chunks()
+        };
+        let expected = write_sample(&path, options);
+        let reader = BagReader::open(&path).expect("open");
+        assert_same(&read_all(&reader, &TopicFilter::All), &expected);
+        files.push(std::fs::read(&path).expect("read"));
+    }
+    assert!(
+        files[0] == files[1],
+        "one worker and three wrote different bytes"
+    );
+}
+
+#[test]
 fn metadata_yaml_lists_files_topics_and_counts() {
     let dir = tempfile::tempdir().expect("tempdir");
     let path = dir.path().join("session");
