@@ -4,11 +4,13 @@
 //!
 //! Pairs are the left and right images of one stamp; each is matched with the
 //! camera_info of its side with that stamp, or the latest one before it. The bag is
-//! streamed: a few images per side wait for their partner, so memory stays bounded
-//! whatever the bag's size.
+//! streamed through a [`pipeline`]: read ahead on one thread, matched on this one (the
+//! matcher runs on all cores), written on another; a few images per side wait for
+//! their partner, so memory stays bounded whatever the bag's size.
 
 use std::collections::VecDeque;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
@@ -18,10 +20,11 @@ use stereocal_msgs::builtin_interfaces::Time;
 use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg, PointCloud2};
 use stereocal_msgs::stereo_msgs::DisparityImage;
-use stereocal_rosbag::{BagReader, BagWriter, OfferedQos, TopicFilter, TopicId};
+use stereocal_rosbag::{BagReader, BagWriter, OfferedQos, TopicFilter};
 use stereocal_vision::stereo::{Paths, SgmParams};
 
 use super::output_bag::create_output_bag;
+use super::pipeline::{self, Output};
 use crate::depth::stage::{DepthStage, disparity_msg, points_msg};
 
 /// Images per side that may wait for their partner.
@@ -190,62 +193,74 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
     );
     let mut sides = [Side::new(&left_topic), Side::new(&right_topic)];
     let mut stage = DepthStage::new(params);
-    let mut output = Output {
-        disparity_id,
-        points_id,
+    let mut matcher = Matcher {
         json: args.json,
         progress: &progress,
         summary: Summary::default(),
     };
     let started = Instant::now();
-    for message in reader.messages(&TopicFilter::All) {
-        let message = message.context("reading the bag")?;
-        if let Some(&id) = copy_ids.get(&*message.topic) {
-            writer.write_timed(
-                id,
-                message.log_time_ns,
-                message.publish_time_ns,
-                &message.data,
-            )?;
-        }
-        for side in sides.iter_mut() {
-            if *message.topic == side.info_topic {
-                match cdr::from_bytes::<CameraInfo>(&message.data) {
-                    Ok(info) => {
-                        if side.infos.len() == RECENT_INFOS {
-                            side.infos.pop_front();
+    let write = |pair: MatchedPair, writer: &mut BagWriter| -> anyhow::Result<()> {
+        writer.write_message(disparity_id, pair.log_time_ns, &pair.disparity)?;
+        writer.write_message(points_id, pair.log_time_ns, &pair.points)?;
+        Ok(())
+    };
+    let ((), writer) = pipeline::run(
+        reader.messages(&TopicFilter::All),
+        writer,
+        write,
+        |messages, out| {
+            for message in messages {
+                let message = message.context("reading the bag")?;
+                let data = Arc::new(message.data);
+                if let Some(&id) = copy_ids.get(&*message.topic) {
+                    out.copy(
+                        id,
+                        message.log_time_ns,
+                        message.publish_time_ns,
+                        data.clone(),
+                    )?;
+                }
+                for side in sides.iter_mut() {
+                    if *message.topic == side.info_topic {
+                        match cdr::from_bytes::<CameraInfo>(&data) {
+                            Ok(info) => {
+                                if side.infos.len() == RECENT_INFOS {
+                                    side.infos.pop_front();
+                                }
+                                side.infos.push_back(info);
+                            }
+                            Err(e) => {
+                                progress.suspend(|| {
+                                    eprintln!("skipped a camera_info on {}: {e}", message.topic)
+                                });
+                            }
                         }
-                        side.infos.push_back(info);
-                    }
-                    Err(e) => {
-                        progress.suspend(|| {
-                            eprintln!("skipped a camera_info on {}: {e}", message.topic)
-                        });
+                    } else if *message.topic == side.image_topic {
+                        match cdr::from_bytes::<ImageMsg>(&data) {
+                            Ok(image) => {
+                                if side.pending.len() == MAX_PENDING {
+                                    side.pending.pop_front();
+                                    matcher.summary.unpaired += 1;
+                                }
+                                side.pending.push_back((message.log_time_ns, image));
+                            }
+                            Err(e) => {
+                                matcher.summary.skipped += 1;
+                                progress.suspend(|| {
+                                    eprintln!("skipped an image on {}: {e}", message.topic)
+                                });
+                            }
+                        }
                     }
                 }
-            } else if *message.topic == side.image_topic {
-                match cdr::from_bytes::<ImageMsg>(&message.data) {
-                    Ok(image) => {
-                        if side.pending.len() == MAX_PENDING {
-                            side.pending.pop_front();
-                            output.summary.unpaired += 1;
-                        }
-                        side.pending.push_back((message.log_time_ns, image));
-                    }
-                    Err(e) => {
-                        output.summary.skipped += 1;
-                        progress
-                            .suspend(|| eprintln!("skipped an image on {}: {e}", message.topic));
-                    }
-                }
+                // A pair waits for the camera_infos of its stamp unless its side is filling up.
+                let force = sides.iter().any(|s| s.pending.len() >= MAX_PENDING / 2);
+                matcher.match_pairs(&mut sides, &mut stage, out, force)?;
             }
-        }
-        // A pair waits for the camera_infos of its stamp unless its side is filling up.
-        let force = sides.iter().any(|s| s.pending.len() >= MAX_PENDING / 2);
-        output.match_pairs(&mut sides, &mut stage, &mut writer, force)?;
-    }
-    output.match_pairs(&mut sides, &mut stage, &mut writer, true)?;
-    let mut summary = output.summary;
+            matcher.match_pairs(&mut sides, &mut stage, out, true)
+        },
+    )?;
+    let mut summary = matcher.summary;
     summary.unpaired += sides.iter().map(|s| s.pending.len() as u64).sum::<u64>();
     progress.finish_and_clear();
     writer
@@ -271,24 +286,29 @@ pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Where matched pairs go, and what happened to them.
-struct Output<'a> {
-    disparity_id: TopicId,
-    points_id: TopicId,
+/// The messages of one matched pair, for the writer.
+struct MatchedPair {
+    log_time_ns: u64,
+    disparity: DisparityImage,
+    points: PointCloud2,
+}
+
+/// Matches pairs, and counts what happened to them.
+struct Matcher<'a> {
     json: bool,
     progress: &'a ProgressBar,
     summary: Summary,
 }
 
-impl Output<'_> {
-    /// Matches the pairs both sides hold, oldest first, and writes their disparities. A
+impl Matcher<'_> {
+    /// Matches the pairs both sides hold, oldest first, and queues their disparities. A
     /// pair whose stamp has no camera_info on both sides yet waits, unless `force`
     /// (then it takes the latest camera_infos).
     fn match_pairs(
         &mut self,
         sides: &mut [Side; 2],
         stage: &mut DepthStage,
-        writer: &mut BagWriter,
+        out: &Output<'_, '_, MatchedPair>,
         force: bool,
     ) -> anyhow::Result<()> {
         while let Some((left_index, right_index)) = find_pair(sides) {
@@ -320,10 +340,13 @@ impl Output<'_> {
             match stage.disparity(&left_image, left_info, &right_image, right_info) {
                 Ok(frame) => {
                     let milliseconds = start.elapsed().as_secs_f64() * 1e3;
-                    let msg = disparity_msg(&frame, left_image.header.clone());
-                    writer.write_message(self.disparity_id, log_time_ns, &msg)?;
+                    let disparity = disparity_msg(&frame, left_image.header.clone());
                     let points = points_msg(&frame, left_image.header.clone())?;
-                    writer.write_message(self.points_id, log_time_ns, &points)?;
+                    out.ready(MatchedPair {
+                        log_time_ns,
+                        disparity,
+                        points,
+                    })?;
                     self.summary.pairs += 1;
                     if self.json {
                         let record = PairRecord {

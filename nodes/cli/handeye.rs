@@ -541,6 +541,7 @@ fn find_poses(
     let gathered = std::cell::RefCell::new(empty_gathered(args)?);
     let damage = input.walk(
         reader,
+        reader.messages(&TopicFilter::All),
         &stage,
         &ProgressBar::hidden(),
         |message| {

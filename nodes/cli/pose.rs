@@ -9,6 +9,7 @@
 
 use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
@@ -22,13 +23,14 @@ use stereocal_msgs::geometry_msgs::{PoseStamped, TransformStamped};
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_msgs::std_msgs::Header;
 use stereocal_msgs::tf2_msgs::TFMessage;
-use stereocal_rosbag::{BagMessage, BagReader, OfferedQos, TopicFilter};
+use stereocal_rosbag::{BagError, BagMessage, BagReader, BagWriter, OfferedQos, TopicFilter};
 use stereocal_vision::board::PatternArgs;
 use stereocal_vision::pnp::PoseOptions;
 
 use super::calibrate::CharucoArgs;
 use super::image_topics::{image_kind, image_topics};
 use super::output_bag::create_output_bag;
+use super::pipeline;
 use crate::convert::{ImageKind, base_topic, pose_msg, transform_msg};
 use crate::pose::record::FrameRecord;
 use crate::pose::stage::{FramePose, PoseRejection, PoseStage};
@@ -194,6 +196,13 @@ fn print_human(report: &PoseReport) {
     }
 }
 
+/// The messages of one solved frame, for the writer.
+struct SolvedPose {
+    log_time_ns: u64,
+    pose: PoseStamped,
+    tf: TFMessage,
+}
+
 /// An image read from the bag, waiting for its camera_info and its pose.
 struct Pending {
     log_time_ns: u64,
@@ -246,54 +255,54 @@ pub fn pose_bag(args: &PoseArgs, progress: &ProgressBar) -> anyhow::Result<PoseR
         ),
         _ => writer.add_message_topic::<TFMessage>("/tf", &OfferedQos::default())?,
     };
-    let writer = std::cell::RefCell::new(writer);
+    let write = |pose: SolvedPose, writer: &mut BagWriter| -> anyhow::Result<()> {
+        writer.write_message(pose_topic, pose.log_time_ns, &pose.pose)?;
+        writer.write_message(tf_topic, pose.log_time_ns, &pose.tf)?;
+        Ok(())
+    };
     let mut frames = Vec::new();
-    let damage = input.walk(
-        &reader,
-        &stage,
-        progress,
-        |message| {
-            if let Some(&id) = copy_ids.get(&*message.topic) {
-                writer.borrow_mut().write_timed(
-                    id,
-                    message.log_time_ns,
-                    message.publish_time_ns,
-                    &message.data,
-                )?;
-            }
-            Ok(())
-        },
-        |frame| {
-            frames.push(FrameRecord::new(&frame.header.stamp, &frame.outcome));
-            let Ok(pose) = &frame.outcome else {
-                return Ok(());
-            };
-            let camera_from_target = &pose.estimate.camera_from_target;
-            let mut writer = writer.borrow_mut();
-            writer.write_message(
-                pose_topic,
-                frame.log_time_ns,
-                &PoseStamped {
-                    header: frame.header.clone(),
-                    pose: pose_msg(camera_from_target),
+    let (damage, writer) = pipeline::run(
+        reader.messages(&TopicFilter::All),
+        writer,
+        write,
+        |messages, out| {
+            input.walk(
+                &reader,
+                messages,
+                &stage,
+                progress,
+                |message| {
+                    if let Some(&id) = copy_ids.get(&*message.topic) {
+                        let data = Arc::new(message.data.clone());
+                        out.copy(id, message.log_time_ns, message.publish_time_ns, data)?;
+                    }
+                    Ok(())
                 },
-            )?;
-            writer.write_message(
-                tf_topic,
-                frame.log_time_ns,
-                &TFMessage {
-                    transforms: vec![TransformStamped {
-                        header: frame.header,
-                        child_frame_id: args.target_frame.clone(),
-                        transform: transform_msg(camera_from_target),
-                    }],
+                |frame| {
+                    frames.push(FrameRecord::new(&frame.header.stamp, &frame.outcome));
+                    let Ok(pose) = &frame.outcome else {
+                        return Ok(());
+                    };
+                    let camera_from_target = &pose.estimate.camera_from_target;
+                    out.ready(SolvedPose {
+                        log_time_ns: frame.log_time_ns,
+                        pose: PoseStamped {
+                            header: frame.header.clone(),
+                            pose: pose_msg(camera_from_target),
+                        },
+                        tf: TFMessage {
+                            transforms: vec![TransformStamped {
+                                header: frame.header,
+                                child_frame_id: args.target_frame.clone(),
+                                transform: transform_msg(camera_from_target),
+                            }],
+                        },
+                    })
                 },
-            )?;
-            Ok(())
+            )
         },
     )?;
     let written = writer
-        .into_inner()
         .finish()
         .with_context(|| format!("finishing {}", args.out.display()))?;
     frames.sort_by(|a: &FrameRecord, b| a.stamp().total_cmp(&b.stamp()));
@@ -397,13 +406,15 @@ impl FrameInput {
         })
     }
 
-    /// Reads the whole bag once: hands every message to `copy` as it is read, pairs each
-    /// image with the camera_info of its stamp (or the file's), solves the images with
-    /// `stage` in parallel batches, and hands every solved frame to `sink` in bag order.
-    /// Returns the damage that ended reading early, if any. `progress` counts images.
+    /// Reads `messages`, the whole of `reader`'s bag in log-time order, once: hands
+    /// every message to `copy` as it is read, pairs each image with the camera_info of
+    /// its stamp (or the file's), solves the images with `stage` in parallel batches,
+    /// and hands every solved frame to `sink` in bag order. Returns the damage that
+    /// ended reading early, if any. `progress` counts images.
     pub fn walk(
         &self,
         reader: &BagReader,
+        messages: impl Iterator<Item = Result<BagMessage, BagError>>,
         stage: &PoseStage,
         progress: &ProgressBar,
         mut copy: impl FnMut(&BagMessage) -> anyhow::Result<()>,
@@ -415,7 +426,7 @@ impl FrameInput {
         let mut batch: Vec<Ready> = Vec::new();
         let mut damage = None;
         let fixed_info = self.fixed_info.as_ref();
-        for message in reader.messages(&TopicFilter::All) {
+        for message in messages {
             let message = match message {
                 Ok(message) => message,
                 Err(e) => {
