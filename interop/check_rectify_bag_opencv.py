@@ -6,7 +6,8 @@ and /fisheye (mono8, equidistant). `stereocal rectify` rectifies it (bilinear);
 `rosbags` reads the output back and every `<ns>/image_rect` is compared with OpenCV's
 `initUndistortRectifyMap` (`fisheye.initUndistortRectifyMap` for equidistant) + `remap`
 (bilinear, constant border 0) on the same image and camera_info: at most 1 grey level
-apart. Every input message must be copied unchanged and every frame rectified.
+apart. Every input message must be copied unchanged and every frame rectified, and the
+Python `mcap` library must read the same messages from the output file.
 
 Usage: .venv/bin/python interop/check_rectify_bag_opencv.py [--width W --height H
        --frames N] [--uncompressed] [--bin path/to/stereocal]   (default: target/release/stereocal if
@@ -22,6 +23,7 @@ from pathlib import Path
 
 import cv2
 import numpy as np
+from mcap.reader import make_reader
 from rosbags.rosbag2 import Reader, Writer
 from rosbags.rosbag2.enums import StoragePlugin
 from rosbags.typesys import Stores, get_typestore
@@ -139,6 +141,15 @@ def main():
         with Reader(bag_out) as reader:
             outputs = [(c.topic, t, bytes(raw)) for c, t, raw in reader.messages()]
             types = {c.topic: c.msgtype for c in reader.connections}
+        # The Python `mcap` library reads the same messages from the file (zstd chunks
+        # compressed by several workers, or uncompressed).
+        read_by_mcap = []
+        for path in sorted(bag_out.glob('*.mcap')):
+            with open(path, 'rb') as f:
+                for _, channel, message in make_reader(f).iter_messages(log_time_order=True):
+                    read_by_mcap.append((channel.topic, message.log_time, bytes(message.data)))
+        if sorted(read_by_mcap) != sorted(outputs):
+            failures.append('the mcap library reads other messages than rosbags')
         copies = [m for m in outputs if not m[0].endswith('/image_rect')]
         if sorted(copies) != sorted(inputs):
             failures.append('input messages are not all copied unchanged')
