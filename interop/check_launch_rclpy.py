@@ -31,7 +31,7 @@ ROOT = Path(__file__).resolve().parent.parent
 RECTIFY_PARAMS = {"interpolation": 2, "queue_size": 3}
 #: Launch arguments that only say where an executable is (left out of the check names).
 EXECUTABLES = {"rectify_node", "calibrate_node", "pose_node", "handeye_node", "disparity_node",
-               "point_cloud_node", "stereocal", "params_file"}
+               "point_cloud_node", "stereocal", "params_file", "rectify_params_file"}
 #: The params file launch/pose.launch.py gives pose_node by default.
 POSE_PARAMS_FILE = ROOT / "config" / "pose_node.yaml"
 
@@ -189,6 +189,9 @@ def cases(rectify_node, calibrate_node, pose_node, handeye_node, disparity_node,
         ("stereo_depth.launch.py", {"disparity_node": disparity_node,
                                     "point_cloud_node": point_cloud_node},
          ["/stereo/disparity_node", "/stereo/point_cloud_node"], depth_graph("/stereo", 128)),
+        ("stereo_pipeline_composed.launch.py", {"stereocal": stereocal,
+                                                "rectify_params_file": rectify_params},
+         ["stereocal (composition)"], {**composed, **depth_graph("/stereo", 128)}),
         ("stereo_depth.launch.py", {"disparity_node": disparity_node,
                                     "point_cloud_node": point_cloud_node,
                                     "camera": "/my_stereo", "disparity_range": "96"},
