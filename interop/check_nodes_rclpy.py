@@ -48,6 +48,10 @@ nodes around it would see:
   any frame, a sample taken on every frame, `~/compute` equal (1e-9) to `stereocal
   handeye --json` on the same bag and within three predicted standard deviations of
   the truth, `~/save` writing the YAML PyYAML reads and report.html, `~/reset`;
+- the whole stereo pipeline: both rectify nodes, disparity_node and point_cloud_node in
+  one `stereocal node compose` process, fed raw (distorted) stereo frames from rclpy,
+  publish the disparity and points2 of every pair equal to `stereocal rectify` then
+  `stereocal depth` on the same frames;
 - durability: a transient-local subscriber created after calibrate_node or pose_node
   published `~/status` still receives the last status (pose_node's with the session's
   frame counts);
@@ -67,7 +71,8 @@ Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin pose_nod
 --bin handeye_node --bin stereocal`):
     .venv/bin/python interop/check_nodes_rclpy.py [--rectify-node PATH]
         [--calibrate-node PATH] [--pose-node PATH] [--handeye-node PATH] [--stereocal PATH]
-        [--only rectify|calibrate|pose|handeye] [--fastdds-socket-buffer BYTES]
+        [--only rectify|calibrate|pose|handeye|disparity|point_cloud|pipeline]
+        [--fastdds-socket-buffer BYTES]
 """
 
 import argparse
@@ -1702,6 +1707,131 @@ def check_point_cloud(checks, peer, rosout, disparity_binary, cloud_binary, ster
                            d.namespace)
 
 
+# ---------------------------------------------------------------------------------------
+# the whole stereo pipeline, composed
+
+#: Raw stereo frames replayed through the composed pipeline.
+PIPELINE_FRAMES = 3
+#: disparity_node's arguments that make it match as `stereocal depth` does (the library's
+#: defaults where stereo_image_proc's differ), at 64 disparities.
+MATCH_AS_OFFLINE = ["-p", "disparity_range:=64", "-p", "uniqueness_ratio:=5.0",
+                    "-p", "speckle_range:=2", "-p", "disp12_max_diff:=1"]
+
+
+def pipeline_session(stereocal, tmp):
+    """Renders a raw (distorted, unrectified) stereo session, 320x240 mono8, and runs
+    `stereocal rectify` then `stereocal depth` on it: the raw frames as rclpy messages
+    (left image, right image, left camera_info, right camera_info) and the offline
+    disparities and clouds by stamp (read by rosbags)."""
+    out = Path(tmp)
+    for command in (
+            ["synth", "--scene", "stereo", "--out", str(out / "raw"), "--frames",
+             str(PIPELINE_FRAMES), "--width", "320", "--height", "240"],
+            ["rectify", "--bag", str(out / "raw" / "bag"), "--out", str(out / "rect")],
+            ["depth", "--bag", str(out / "rect"), "--out", str(out / "depth"),
+             "--disparity-range", "64"]):
+        subprocess.run([stereocal, *command], check=True, capture_output=True)
+    sides = {}
+    for topic, msg in bag_messages(out / "raw" / "bag", [
+            "/stereo/left/image_raw", "/stereo/right/image_raw",
+            "/stereo/left/camera_info", "/stereo/right/camera_info"]):
+        sides.setdefault(topic, []).append(msg)
+    frames = []
+    for left, right, left_info, right_info in zip(
+            sides["/stereo/left/image_raw"], sides["/stereo/right/image_raw"],
+            sides["/stereo/left/camera_info"], sides["/stereo/right/camera_info"]):
+        left_image, left_camera = rclpy_frame(left, left_info)
+        right_image, right_camera = rclpy_frame(right, right_info)
+        frames.append((left_image, right_image, left_camera, right_camera))
+    disparities = {stamp_of(m): m for _, m in bag_messages(out / "depth", [DISPARITY])}
+    clouds = {stamp_of(m): m for _, m in bag_messages(out / "depth", [POINTS2])}
+    return frames, disparities, clouds
+
+
+def check_pipeline(checks, peer, rosout, stereocal):
+    """rectify_node x2, disparity_node and point_cloud_node in one `stereocal node
+    compose` process, fed raw frames from rclpy: disparity and points2 equal to
+    `stereocal rectify` + `stereocal depth` on the same frames."""
+    label = "pipeline (composed)"
+    setup = (f"setup: stereocal synth --scene stereo ({PIPELINE_FRAMES} raw pairs), "
+             f"stereocal rectify, stereocal depth")
+    with tempfile.TemporaryDirectory() as tmp:
+        with checks.check(label, setup) as note:
+            frames, disparities, clouds = pipeline_session(stereocal, tmp)
+            require(len(frames) == PIPELINE_FRAMES and len(disparities) == PIPELINE_FRAMES
+                    and len(clouds) == PIPELINE_FRAMES,
+                    f"{len(frames)} raw pairs, {len(disparities)} offline disparities, "
+                    f"{len(clouds)} offline clouds")
+            note(f"{frames[0][0].width}x{frames[0][0].height} {frames[0][0].encoding}, "
+                 f"{frames[0][2].distortion_model}")
+        if not checks.passed(label, setup):
+            return checks.skip(label, "the other checks", "no rendered session")
+        composition = Path(tmp) / "pipeline.yaml"
+        composition.write_text(yaml.safe_dump({"nodes": [
+            {"node": "rectify", "args": ["-r", "__ns:=/stereo/left", "-r", "image:=image_raw"]},
+            {"node": "rectify", "args": ["-r", "__ns:=/stereo/right", "-r", "image:=image_raw"]},
+            {"node": "disparity", "args": ["-r", "__ns:=/stereo", *MATCH_AS_OFFLINE]},
+            {"node": "point_cloud",
+             "args": ["-r", "__ns:=/stereo", "-r", "left/image_rect_color:=left/image_rect"]},
+        ]}))
+        images = [peer.node.create_publisher(Image, f"/stereo/{side}/image_raw", RELIABLE)
+                  for side in ("left", "right")]
+        infos = [peer.node.create_publisher(CameraInfo, f"/stereo/{side}/camera_info", RELIABLE)
+                 for side in ("left", "right")]
+        disparity_inbox = peer.subscribe(DisparityImage, DISPARITY, RELIABLE)
+        cloud_inbox = peer.subscribe(PointCloud2, POINTS2, RELIABLE)
+        process = NodeProcess([stereocal, "node", "compose", str(composition)], peer.domain)
+        peer.watch(process)
+        nodes = [("rectify_node", "/stereo/left"), ("rectify_node", "/stereo/right"),
+                 ("disparity_node", "/stereo"), ("point_cloud_node", "/stereo")]
+        try:
+            with checks.check(label, "discovery: the four nodes of the one process") as note:
+                peer.wait_until(lambda: all(n in peer.node_names() for n in nodes),
+                                f"{nodes} in get_node_names_and_namespaces()")
+                note(", ".join(f"{ns}/{name}" for name, ns in nodes))
+
+            replay = (f"raw pairs replayed: disparity and points2 of every pair, equal to "
+                      f"stereocal rectify + stereocal depth's")
+            with checks.check(label, replay) as note:
+                peer.wait_until(lambda: all(p.get_subscription_count() > 0
+                                            for p in (*images, *infos)),
+                                "the rectify nodes' subscriptions")
+                for frame in frames:
+                    stamp = stamp_of(frame[0])
+
+                    def send(frame=frame):
+                        for publisher, info in zip(infos, frame[2:]):
+                            publisher.publish(info)
+                        for publisher, image in zip(images, frame[:2]):
+                            publisher.publish(image)
+
+                    def both(stamp=stamp):
+                        got = [next((m for m in inbox.messages if stamp_of(m) == stamp), None)
+                               for inbox in (disparity_inbox, cloud_inbox)]
+                        return got if all(got) else None
+                    disparity, cloud = peer.send_until(
+                        send, both, lambda stamp=stamp: f"disparity and points2 of pair {stamp}")
+                    want = disparities[stamp]
+                    got = np.frombuffer(bytes(disparity.image.data), dtype="<f4")
+                    require(np.array_equal(got, np.frombuffer(want.image.data.tobytes(),
+                                                              dtype="<f4")),
+                            f"pair {stamp}: disparities differ from stereocal depth's")
+                    require((disparity.f, disparity.t) == (want.f, want.t),
+                            f"pair {stamp}: f {disparity.f}, T {disparity.t}")
+                    ours, theirs = xyz_of(cloud), xyz_of(clouds[stamp])
+                    require(np.array_equal(np.isnan(ours), np.isnan(theirs))
+                            and np.array_equal(ours[~np.isnan(ours)], theirs[~np.isnan(theirs)]),
+                            f"pair {stamp}: xyz differ from stereocal depth's points2")
+                valid = got >= disparity.min_disparity
+                note(f"{len(frames)} pairs; last: {valid.mean():.1%} of the disparities valid")
+        finally:
+            for publisher in (*images, *infos):
+                peer.node.destroy_publisher(publisher)
+            for inbox in (disparity_inbox, cloud_inbox):
+                peer.node.destroy_subscription(inbox.subscription)
+            stop_and_check(checks, peer, process, label, "disparity_node", "/stereo")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rectify-node", default=str(ROOT / "target" / "debug" / "rectify_node"))
@@ -1716,7 +1846,7 @@ def main():
                         default=str(ROOT / "target" / "debug" / "point_cloud_node"))
     parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
     parser.add_argument("--only", choices=("rectify", "calibrate", "pose", "handeye", "disparity",
-                                           "point_cloud"))
+                                           "point_cloud", "pipeline"))
     parser.add_argument("--fastdds-socket-buffer", type=int, default=8 * 1024 * 1024,
                         help="bytes of Fast DDS's UDP socket buffers; 0 keeps its default")
     args = parser.parse_args()
@@ -1747,6 +1877,8 @@ def main():
             if args.only in (None, "point_cloud"):
                 check_point_cloud(checks, peer, rosout, args.disparity_node,
                                   args.point_cloud_node, args.stereocal)
+            if args.only in (None, "pipeline"):
+                check_pipeline(checks, peer, rosout, args.stereocal)
         finally:
             peer.close()
             lease.release()
