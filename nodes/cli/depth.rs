@@ -1,6 +1,8 @@
-//! `stereocal depth`: the disparity of every rectified stereo pair of a bag, written as
+//! `stereocal depth`: the disparity of every stereo pair of a bag, written as
 //! `<ns>/disparity` (stereo_msgs/DisparityImage) and `<ns>/points2` (an organized
-//! sensor_msgs/PointCloud2) beside copies of all input topics.
+//! sensor_msgs/PointCloud2) beside copies of all input topics. Rectified pairs
+//! (`image_rect` topics) are matched as they are; raw pairs are rectified first with
+//! their camera_infos, as the rectify nodes would.
 //!
 //! Pairs are the left and right images of one stamp; each is matched with the
 //! camera_info of its side with that stamp, or the latest one before it. The bag is
@@ -26,6 +28,8 @@ use stereocal_vision::stereo::{Paths, SgmParams};
 use super::output_bag::create_output_bag;
 use super::pipeline::{self, Output};
 use crate::depth::stage::{DepthStage, disparity_msg, points_msg};
+use crate::rectify::stage::{Rectified, Rectifier};
+use stereocal_vision::rectify::RemapOptions;
 
 /// Images per side that may wait for their partner.
 const MAX_PENDING: usize = 8;
@@ -52,7 +56,9 @@ pub struct DepthArgs {
     /// Output bag: a directory, or a file ending in .mcap. Written atomically.
     #[arg(long)]
     pub out: PathBuf,
-    /// Left rectified image topic (default: the bag's only `.../left/image_rect`).
+    /// Left image topic (default: the bag's only `.../left/image_rect`, else its only
+    /// `.../left/image_raw`). Topics named `image_rect` or `image_rect_color` hold
+    /// rectified images; any other is raw and is rectified first with its camera_info.
     #[arg(long)]
     pub left_topic: Option<String>,
     /// Right rectified image topic (default: the left one with `left` turned `right`).
@@ -102,6 +108,8 @@ struct Side {
     info_topic: String,
     pending: VecDeque<(u64, ImageMsg)>,
     infos: VecDeque<CameraInfo>,
+    /// For raw images: what rectifies them before matching.
+    rectifier: Option<Rectifier>,
 }
 
 impl Side {
@@ -111,6 +119,27 @@ impl Side {
             info_topic: format!("{}/camera_info", parent(image_topic)),
             pending: VecDeque::new(),
             infos: VecDeque::new(),
+            rectifier: (!is_rectified(image_topic))
+                .then(|| Rectifier::new(RemapOptions::default())),
+        }
+    }
+
+    /// `image` ready to match: as it is when rectified, else rectified with `info`.
+    fn rectified(
+        &mut self,
+        image: ImageMsg,
+        info: &CameraInfo,
+        side: &str,
+    ) -> Result<ImageMsg, String> {
+        let Some(rectifier) = &mut self.rectifier else {
+            return Ok(image);
+        };
+        match rectifier.rectify(&image, info) {
+            Ok(Rectified::Image(rect)) => Ok(rect),
+            Ok(Rectified::Uncalibrated { .. }) => Err(format!(
+                "the {side} camera_info is uncalibrated (K[0] == 0): its raw image cannot be rectified"
+            )),
+            Err(e) => Err(format!("rectifying the {side} image: {e}")),
         }
     }
 
@@ -135,6 +164,13 @@ impl Side {
             })
             .or_else(|| self.infos.back())
     }
+}
+
+/// Whether a topic holds rectified images, by its name: `.../image_rect` or
+/// `.../image_rect_color`.
+fn is_rectified(topic: &str) -> bool {
+    let leaf = topic.rsplit_once('/').map_or(topic, |(_, leaf)| leaf);
+    leaf == "image_rect" || leaf == "image_rect_color"
 }
 
 fn stamp_key(stamp: &Time) -> (i32, u32) {
@@ -336,8 +372,19 @@ impl Matcher<'_> {
                 );
                 continue;
             };
+            let (left_info, right_info) = (left_info.clone(), right_info.clone());
+            let rectified = left
+                .rectified(left_image, &left_info, "left")
+                .and_then(|l| Ok((l, right.rectified(right_image, &right_info, "right")?)));
+            let (left_image, right_image) = match rectified {
+                Ok(pair) => pair,
+                Err(reason) => {
+                    self.skip(&stamp, reason);
+                    continue;
+                }
+            };
             let start = Instant::now();
-            match stage.disparity(&left_image, left_info, &right_image, right_info) {
+            match stage.disparity(&left_image, &left_info, &right_image, &right_info) {
                 Ok(frame) => {
                     let milliseconds = start.elapsed().as_secs_f64() * 1e3;
                     let disparity = disparity_msg(&frame, left_image.header.clone());
@@ -404,14 +451,19 @@ fn pair_topics(reader: &BagReader, args: &DepthArgs) -> anyhow::Result<(String, 
     let left = match &args.left_topic {
         Some(topic) => topic.clone(),
         None => {
-            let candidates: Vec<&&str> = images
+            let rectified: Vec<&&str> = images
                 .iter()
                 .filter(|t| t.ends_with("left/image_rect") || t.ends_with("left/image_rect_color"))
                 .collect();
+            let raw: Vec<&&str> = images
+                .iter()
+                .filter(|t| t.ends_with("left/image_raw"))
+                .collect();
+            let candidates = if rectified.is_empty() { raw } else { rectified };
             match candidates.as_slice() {
                 [one] => (**one).to_owned(),
                 [] => bail!(
-                    "the bag has no .../left/image_rect topic; name the pair with --left-topic and --right-topic (image topics: {})",
+                    "the bag has no .../left/image_rect nor .../left/image_raw topic; name the pair with --left-topic and --right-topic (image topics: {})",
                     images.join(", ")
                 ),
                 many => bail!(

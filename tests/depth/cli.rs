@@ -275,3 +275,42 @@ fn the_stage_names_what_is_wrong_with_a_pair() {
             .is_ok()
     );
 }
+
+#[test]
+fn raw_pairs_are_rectified_first_as_stereocal_rectify_would() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut synth = SynthArgs::new(SceneArg::Stereo, dir.path().join("raw"), 1, 2);
+    synth.width = Some(320);
+    synth.height = Some(240);
+    stereocal::cli::synth::run(&synth).unwrap();
+    let raw = dir.path().join("raw").join("bag");
+
+    let from_raw = dir.path().join("from_raw");
+    stereocal::cli::depth::run(&depth_args(&raw, &from_raw)).unwrap();
+
+    let rectified = dir.path().join("rectified");
+    stereocal::cli::rectify::rectify_bag(
+        &raw,
+        &rectified,
+        &stereocal::cli::rectify::BagRectifyOptions::default(),
+        &indicatif::ProgressBar::hidden(),
+    )
+    .unwrap();
+    let from_rectified = dir.path().join("from_rectified");
+    stereocal::cli::depth::run(&depth_args(&rectified, &from_rectified)).unwrap();
+
+    let ours: Vec<DisparityImage> = messages(&from_raw, "/stereo/disparity");
+    let theirs: Vec<DisparityImage> = messages(&from_rectified, "/stereo/disparity");
+    assert_eq!(ours.len(), 2);
+    assert_eq!(ours, theirs);
+    let valid = ours[0]
+        .image
+        .data
+        .chunks_exact(4)
+        .filter(|v| f32::from_le_bytes([v[0], v[1], v[2], v[3]]) >= ours[0].min_disparity)
+        .count();
+    assert!(
+        valid * 2 > 320 * 240,
+        "only {valid} of the raw pair's disparities are valid"
+    );
+}
