@@ -37,6 +37,11 @@ Usage: .venv/bin/python interop/bench_depth_opencv.py
        [--stereocal target/release/stereocal]
        [--timing target/release/examples/stereo_timing] [--frames 3] [--repeats 5]
        [--rounds 2] [--paths eight] [--check-speed] [--skip-walls] [--skip-720p]
+       [--skip-bm | --bm-only]
+
+Block matching: stereocal's `BlockMatcher` and cv2.StereoBM with stereo_image_proc's
+defaults (window 15, prefilter_cap 31, texture_threshold 10, uniqueness_ratio 15,
+speckle 100 / 4), scored and timed the same way on the 640x480 pairs.
 """
 
 import argparse
@@ -123,7 +128,7 @@ def time_opencv(matcher, frames, repeats):
     return statistics.median(times)
 
 
-def run_ours(timing, frames, work, params, repeats, threads):
+def run_ours(timing, frames, work, params, repeats, threads, algorithm="sgm"):
     pairs = []
     for i, frame in enumerate(frames):
         left, right = work / f"pair_{i}_left.png", work / f"pair_{i}_right.png"
@@ -131,7 +136,7 @@ def run_ours(timing, frames, work, params, repeats, threads):
         cv2.imwrite(str(right), frame["right"])
         pairs.append({"left": str(left), "right": str(right), "out": str(work / f"pair_{i}.pfm")})
     spec = work / "pairs.json"
-    spec.write_text(json.dumps({"params": params, "pairs": pairs}))
+    spec.write_text(json.dumps({"algorithm": algorithm, "params": params, "pairs": pairs}))
     command = [timing, str(spec), "--repeats", str(repeats)]
     if threads:
         command += ["--threads", str(threads)]
@@ -196,6 +201,51 @@ def compare(name, frames, args, work):
     return failures
 
 
+def bm_params(disparities):
+    """stereo_image_proc's block-matching defaults (window 15, prefilter_cap 31,
+    texture_threshold 10, uniqueness_ratio 15, speckle 100 / 4), left-right check off."""
+    return {"min_disparity": 0, "disparity_range": disparities, "window": 15, "prefilter_cap": 31,
+            "texture_threshold": 10, "uniqueness_ratio": 15, "disp12_max_diff": None,
+            "speckle_size": 100, "speckle_range": 4.0}
+
+
+def opencv_bm(disparities):
+    """cv2.StereoBM with the same parameters as `bm_params`, as stereo_image_proc sets them."""
+    matcher = cv2.StereoBM_create(numDisparities=disparities, blockSize=15)
+    matcher.setPreFilterCap(31)
+    matcher.setTextureThreshold(10)
+    matcher.setUniquenessRatio(15)
+    matcher.setSpeckleWindowSize(100)
+    matcher.setSpeckleRange(4)
+    matcher.setDisp12MaxDiff(-1)
+    return matcher
+
+
+def compare_bm(name, frames, args, work):
+    """Block matching: stereocal's BlockMatcher against cv2.StereoBM, the same parameters;
+    accuracy and speed printed (no check: BM is the cheap mode, scored for information)."""
+    print(f"\n== block matching, {name}: {len(frames)} pairs, {RANGE} disparities, window 15")
+    params = bm_params(RANGE)
+    matcher = opencv_bm(RANGE)
+    ours, _ = run_ours(args.timing, frames, work, params, 1, 0, "bm")
+    results = {"stereocal BM": mean_scores([score(d, f) for d, f in zip(ours, frames)]),
+               "OpenCV StereoBM": mean_scores([score(opencv_disparity(matcher, f), f) for f in frames])}
+    print(f"{'':22} {'bad-1.0':>8} {'bad-2.0':>8} {'EPE px':>8} {'density':>8}")
+    for label, s in results.items():
+        print(f"{label:22} {s['bad1']:8.4f} {s['bad2']:8.4f} {s['epe']:8.3f} {s['density']:8.3f}")
+    print(f"{'speed (median ms per pair)':34} {'1 thread':>10} {'all threads':>12}")
+    for threads in (1, 0):
+        cv2.setNumThreads(threads if threads else -1)
+        theirs, mine = [], []
+        for _ in range(args.rounds):
+            theirs.append(time_opencv(matcher, frames, args.repeats))
+            mine.append(run_ours(args.timing, frames, work, params, args.repeats, threads, "bm")[1])
+        theirs, mine = statistics.median(theirs), statistics.median(mine)
+        print(f"{'threads ' + (str(threads) if threads else 'all'):34} OpenCV {theirs:8.1f}  stereocal "
+              f"{mine:8.1f}  ratio {theirs / mine:.2f}x")
+    return []
+
+
 def walls(args, work):
     truth, frames = synth(args.stereocal, work / "walls", ["--scene", "depth-walls"])
     params = default_params(args.paths, WALL_RANGE)
@@ -231,13 +281,20 @@ def main():
     parser.add_argument("--check-speed", action="store_true")
     parser.add_argument("--skip-walls", action="store_true")
     parser.add_argument("--skip-720p", action="store_true")
+    parser.add_argument("--skip-bm", action="store_true")
+    parser.add_argument("--bm-only", action="store_true", help="only the 640x480 block-matching comparison")
     args = parser.parse_args()
 
     failures = []
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         _, frames = synth(args.stereocal, work / "vga", ["--scene", "depth", "--frames", str(args.frames)])
+        if args.bm_only:
+            compare_bm("640x480", frames, args, work)
+            return
         failures += compare("640x480", frames, args, work)
+        if not args.skip_bm:
+            failures += compare_bm("640x480", frames, args, work)
         if not args.skip_720p:
             _, frames = synth(args.stereocal, work / "hd", ["--scene", "depth", "--frames", str(args.frames),
                                                            "--width", "1280", "--height", "720"])

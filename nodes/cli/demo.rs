@@ -213,6 +213,8 @@ fn depth_session(out: &Path) -> anyhow::Result<()> {
         out: matched.clone(),
         left_topic: None,
         right_topic: None,
+        algorithm: crate::cli::depth::AlgorithmArg::Sgbm,
+        window: stereocal_vision::stereo::BmParams::default().window,
         min_disparity: 0,
         disparity_range: 128,
         paths: crate::cli::depth::PathsArg::Eight,

@@ -23,11 +23,11 @@ use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg, PointCloud2};
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_rosbag::{BagReader, BagWriter, OfferedQos, TopicFilter};
-use stereocal_vision::stereo::{Paths, SgmParams};
+use stereocal_vision::stereo::{BmParams, Paths, SgmParams};
 
 use super::output_bag::create_output_bag;
 use super::pipeline::{self, Output};
-use crate::depth::stage::{DepthStage, disparity_msg, points_msg};
+use crate::depth::stage::{DepthStage, MatcherParams, disparity_msg, points_msg};
 use crate::rectify::stage::{Rectified, Rectifier};
 use stereocal_vision::rectify::RemapOptions;
 
@@ -35,6 +35,15 @@ use stereocal_vision::rectify::RemapOptions;
 const MAX_PENDING: usize = 8;
 /// Recent camera_infos kept per side.
 const RECENT_INFOS: usize = 8;
+
+/// Matching algorithm, on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum AlgorithmArg {
+    /// Semi-global matching on census costs (stereo_image_proc's `stereo_algorithm: 1`).
+    Sgbm,
+    /// Block matching, the cheapest (`stereo_algorithm: 0`, OpenCV's StereoBM).
+    Bm,
+}
 
 /// Aggregation paths, on the command line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -64,16 +73,22 @@ pub struct DepthArgs {
     /// Right rectified image topic (default: the left one with `left` turned `right`).
     #[arg(long)]
     pub right_topic: Option<String>,
+    /// Matching algorithm.
+    #[arg(long, value_enum, default_value = "sgbm")]
+    pub algorithm: AlgorithmArg,
+    /// Block matching: side of the matching window, pixels (odd, 5 to 255).
+    #[arg(long, default_value_t = BmParams::default().window)]
+    pub window: usize,
     /// Smallest disparity searched, pixels.
     #[arg(long, default_value_t = 0, allow_hyphen_values = true)]
     pub min_disparity: i32,
     /// Number of disparities searched: a multiple of 16 below the image width.
     #[arg(long, default_value_t = 128)]
     pub disparity_range: usize,
-    /// Aggregation paths.
+    /// Semi-global matching: aggregation paths.
     #[arg(long, value_enum, default_value = "eight")]
     pub paths: PathsArg,
-    /// Half-size of the sub-pixel refinement's window (0: none).
+    /// Semi-global matching: half-size of the sub-pixel refinement's window (0: none).
     #[arg(long, default_value_t = SgmParams::default().refine_radius)]
     pub refine_radius: usize,
     /// Print one JSON object per pair (stamp, valid density, milliseconds of matching)
@@ -184,16 +199,24 @@ fn parent(topic: &str) -> &str {
 
 /// Runs `stereocal depth`.
 pub fn run(args: &DepthArgs) -> anyhow::Result<()> {
-    let params = SgmParams {
-        min_disparity: args.min_disparity,
-        disparity_range: args.disparity_range,
-        paths: match args.paths {
-            PathsArg::Four => Paths::Four,
-            PathsArg::Five => Paths::Five,
-            PathsArg::Eight => Paths::Eight,
-        },
-        refine_radius: args.refine_radius,
-        ..SgmParams::default()
+    let params = match args.algorithm {
+        AlgorithmArg::Sgbm => MatcherParams::Sgm(SgmParams {
+            min_disparity: args.min_disparity,
+            disparity_range: args.disparity_range,
+            paths: match args.paths {
+                PathsArg::Four => Paths::Four,
+                PathsArg::Five => Paths::Five,
+                PathsArg::Eight => Paths::Eight,
+            },
+            refine_radius: args.refine_radius,
+            ..SgmParams::default()
+        }),
+        AlgorithmArg::Bm => MatcherParams::Bm(BmParams {
+            min_disparity: args.min_disparity,
+            disparity_range: args.disparity_range,
+            window: args.window,
+            ..BmParams::default()
+        }),
     };
     // Parameters that do not depend on the image are refused before reading the bag.
     params

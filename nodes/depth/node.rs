@@ -1,5 +1,5 @@
 //! The disparity node: a drop-in for stereo_image_proc's DisparityNode on our
-//! semi-global matcher. Runs as the `disparity_node` executable and as
+//! semi-global matcher or block matcher. Runs as the `disparity_node` executable and as
 //! `stereocal node disparity`.
 //!
 //! Subscribes `left/image_rect`, `right/image_rect` (sensor_msgs/Image, mono or 8-bit
@@ -10,15 +10,17 @@
 //! stereo_image_proc does (see [`super::stage::disparity_msg`]).
 //!
 //! Parameters keep stereo_image_proc's names and ranges. Where our matcher differs:
-//! - `stereo_algorithm`: 1 (semi-global) is the default and the only value; block
-//!   matching (0) is refused at start-up with the reason;
+//! - `stereo_algorithm`: 1 (semi-global, the default) or 0 (block matching, with
+//!   `correlation_window_size`, `prefilter_cap` and `texture_threshold` as OpenCV's
+//!   StereoBM takes them);
 //! - `sgbm_mode`: OpenCV's modes mapped to aggregation paths: 0 (SGBM) five, 1 (HH)
 //!   eight (default), 2 (SGBM_3WAY) and 3 (HH4) four;
 //! - `P1`, `P2`: penalties in census units (Hamming bits of a 9x7 census, 0 to 62 per
 //!   disparity), defaults 10 and 120;
-//! - `prefilter_size`, `prefilter_cap`, `correlation_window_size`, `texture_threshold`
-//!   are accepted so that stereo_image_proc's parameter files load, and do not change
-//!   the census matcher;
+//! - `prefilter_size` is accepted so that stereo_image_proc's parameter files load: the
+//!   block matcher's pre-filter is the x-Sobel one (OpenCV's default, as
+//!   stereo_image_proc leaves it), which has no size; the semi-global matcher uses
+//!   none of the block-matching parameters;
 //! - `refine_radius` (ours): half-size of the window of the sub-pixel refinement.
 //!
 //! A pair that cannot be matched (sizes or encodings that differ, camera_infos of no
@@ -28,7 +30,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use ros2_client::ParameterValue;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image};
 use stereocal_msgs::stereo_msgs::DisparityImage;
@@ -39,9 +41,9 @@ use stereocal_runtime::qos;
 use stereocal_runtime::skeleton::{self, FrameStats, Inputs, Worker};
 use stereocal_runtime::sync::{SyncPolicy, Synced};
 use stereocal_runtime::throttle::Throttle;
-use stereocal_vision::stereo::{Paths, SgmParams};
+use stereocal_vision::stereo::{BmParams, Paths, SgmParams};
 
-use super::stage::{DepthStage, disparity_msg};
+use super::stage::{DepthStage, MatcherParams, disparity_msg};
 use crate::image_transport::{self, image_stream, transport};
 
 /// Matches each synchronized pair and publishes its disparity.
@@ -102,19 +104,37 @@ fn declare(builder: NodeBuilder) -> NodeBuilder {
             ParamSpec::new(name, ParameterValue::Double(default), description).double_range(range)
         };
     let defaults = SgmParams::default();
-    let unused =
-        "accepted for stereo_image_proc's parameter files; the census matcher does not use it";
     [
         integer(
             "stereo_algorithm",
             1,
             0..=1,
-            "stereo algorithm: semi-global matching (1); block matching (0) is not available",
+            "stereo algorithm: block matching (0) or semi-global matching (1)",
         ),
-        integer("prefilter_size", 9, 5..=255, unused),
-        integer("prefilter_cap", 31, 1..=63, unused),
-        integer("correlation_window_size", 15, 5..=255, unused),
-        integer("texture_threshold", 10, 0..=10000, unused),
+        integer(
+            "prefilter_size",
+            9,
+            5..=255,
+            "accepted for stereo_image_proc's parameter files; the x-Sobel pre-filter has no size",
+        ),
+        integer(
+            "prefilter_cap",
+            31,
+            1..=63,
+            "block matching: the pre-filtered derivative is clipped to this",
+        ),
+        integer(
+            "correlation_window_size",
+            15,
+            5..=255,
+            "block matching: side of the matching window, pixels (odd)",
+        ),
+        integer(
+            "texture_threshold",
+            10,
+            0..=10000,
+            "block matching: least summed derivative magnitude in the window for a match",
+        ),
         integer(
             "min_disparity",
             0,
@@ -199,37 +219,50 @@ fn declare(builder: NodeBuilder) -> NodeBuilder {
 }
 
 /// The matcher parameters the node's parameters ask for.
-fn params_from_node(node: &RosNode) -> anyhow::Result<SgmParams> {
-    if node.param_i64("stereo_algorithm")? == 0 {
-        bail!(
-            "parameter stereo_algorithm: block matching (0) is not available; use semi-global matching (1)"
-        );
-    }
-    let paths = match node.param_i64("sgbm_mode")? {
-        0 => Paths::Five,
-        1 => Paths::Eight,
-        _ => Paths::Four,
-    };
-    let penalty = |name: &str| -> anyhow::Result<u16> {
-        let value = node.param_f64(name)?.round();
-        u16::try_from(value as i64).with_context(|| format!("parameter {name}: {value}"))
-    };
+fn params_from_node(node: &RosNode) -> anyhow::Result<MatcherParams> {
     let integer = |name: &str| -> anyhow::Result<usize> {
         usize::try_from(node.param_i64(name)?).with_context(|| format!("parameter {name}"))
     };
-    let params = SgmParams {
-        min_disparity: i32::try_from(node.param_i64("min_disparity")?).context("min_disparity")?,
-        disparity_range: integer("disparity_range")?,
-        paths,
-        p1: penalty("P1")?,
-        p2: penalty("P2")?,
-        uniqueness_ratio: node.param_f64("uniqueness_ratio")?.round() as u32,
-        disp12_max_diff: Some(
-            u32::try_from(node.param_i64("disp12_max_diff")?).context("disp12_max_diff")?,
-        ),
-        speckle_size: integer("speckle_size")?,
-        speckle_range: node.param_i64("speckle_range")? as f32,
-        refine_radius: integer("refine_radius")?,
+    let min_disparity = i32::try_from(node.param_i64("min_disparity")?).context("min_disparity")?;
+    let uniqueness_ratio = node.param_f64("uniqueness_ratio")?.round() as u32;
+    let disp12_max_diff =
+        Some(u32::try_from(node.param_i64("disp12_max_diff")?).context("disp12_max_diff")?);
+    let params = if node.param_i64("stereo_algorithm")? == 0 {
+        MatcherParams::Bm(BmParams {
+            min_disparity,
+            disparity_range: integer("disparity_range")?,
+            window: integer("correlation_window_size")?,
+            prefilter_cap: u8::try_from(node.param_i64("prefilter_cap")?)
+                .context("prefilter_cap")?,
+            texture_threshold: u32::try_from(node.param_i64("texture_threshold")?)
+                .context("texture_threshold")?,
+            uniqueness_ratio,
+            disp12_max_diff,
+            speckle_size: integer("speckle_size")?,
+            speckle_range: node.param_i64("speckle_range")? as f32,
+        })
+    } else {
+        let paths = match node.param_i64("sgbm_mode")? {
+            0 => Paths::Five,
+            1 => Paths::Eight,
+            _ => Paths::Four,
+        };
+        let penalty = |name: &str| -> anyhow::Result<u16> {
+            let value = node.param_f64(name)?.round();
+            u16::try_from(value as i64).with_context(|| format!("parameter {name}: {value}"))
+        };
+        MatcherParams::Sgm(SgmParams {
+            min_disparity,
+            disparity_range: integer("disparity_range")?,
+            paths,
+            p1: penalty("P1")?,
+            p2: penalty("P2")?,
+            uniqueness_ratio,
+            disp12_max_diff,
+            speckle_size: integer("speckle_size")?,
+            speckle_range: node.param_i64("speckle_range")? as f32,
+            refine_radius: integer("refine_radius")?,
+        })
     };
     // What does not depend on the image size is refused at start-up.
     params

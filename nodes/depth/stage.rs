@@ -9,7 +9,8 @@ use stereocal_msgs::std_msgs::Header;
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_vision::image::{Image, Samples};
 use stereocal_vision::stereo::{
-    DisparityMap, Reprojection, ReprojectionError, SemiGlobalMatcher, SgmParams, StereoError,
+    BlockMatcher, BmParams, DisparityMap, Reprojection, ReprojectionError, SemiGlobalMatcher,
+    SgmParams, StereoError,
 };
 use thiserror::Error;
 
@@ -74,27 +75,62 @@ pub struct DisparityFrame {
     pub reprojection: Reprojection,
 }
 
+/// Which matcher a [`DepthStage`] runs, with its parameters.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MatcherParams {
+    /// Semi-global matching on census costs (`stereo_algorithm: 1`).
+    Sgm(SgmParams),
+    /// Block matching (`stereo_algorithm: 0`).
+    Bm(BmParams),
+}
+
+impl From<SgmParams> for MatcherParams {
+    fn from(params: SgmParams) -> Self {
+        Self::Sgm(params)
+    }
+}
+
+impl From<BmParams> for MatcherParams {
+    fn from(params: BmParams) -> Self {
+        Self::Bm(params)
+    }
+}
+
+impl MatcherParams {
+    /// Checks the parameters against an image `width` pixels wide.
+    pub fn validate(&self, width: usize) -> Result<(), StereoError> {
+        match self {
+            Self::Sgm(params) => params.validate(width),
+            Self::Bm(params) => params.validate(width),
+        }
+    }
+}
+
+/// A matcher of either kind.
+enum Matcher {
+    Sgm(SemiGlobalMatcher),
+    Bm(BlockMatcher),
+}
+
 /// Matches rectified pairs, keeping the matcher's buffers and the decoded images
 /// between pairs.
 pub struct DepthStage {
-    matcher: SemiGlobalMatcher,
+    matcher: Matcher,
     left: Image,
     right: Image,
 }
 
 impl DepthStage {
-    /// A stage matching with `params`.
-    pub fn new(params: SgmParams) -> Self {
+    /// A stage matching with `params` (semi-global or block-matching parameters).
+    pub fn new(params: impl Into<MatcherParams>) -> Self {
         Self {
-            matcher: SemiGlobalMatcher::new(params),
+            matcher: match params.into() {
+                MatcherParams::Sgm(params) => Matcher::Sgm(SemiGlobalMatcher::new(params)),
+                MatcherParams::Bm(params) => Matcher::Bm(BlockMatcher::new(params)),
+            },
             left: Image::zeros_u8(0, 0, 1),
             right: Image::zeros_u8(0, 0, 1),
         }
-    }
-
-    /// The matcher's parameters.
-    pub fn params(&self) -> &SgmParams {
-        self.matcher.params()
     }
 
     /// The disparity of the pair `left`/`right` (rectified: mono8, mono16, or 8-bit
@@ -137,7 +173,10 @@ impl DepthStage {
                 });
             }
         }
-        let map = self.matcher.compute(left_image, right_image)?;
+        let map = match &mut self.matcher {
+            Matcher::Sgm(matcher) => matcher.compute(left_image, right_image)?,
+            Matcher::Bm(matcher) => matcher.compute(left_image, right_image)?,
+        };
         Ok(DisparityFrame { map, reprojection })
     }
 }

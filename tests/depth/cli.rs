@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use stereocal::cli::depth::{DepthArgs, PathsArg};
+use stereocal::cli::depth::{AlgorithmArg, DepthArgs, PathsArg};
 use stereocal::cli::synth::{SceneArg, SynthArgs};
 use stereocal::cli::synth_depth::{FrameTruth, read_truth};
 use stereocal::depth::stage::{DepthRejection, DepthStage};
@@ -12,7 +12,7 @@ use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg, PointCloud2};
 use stereocal_msgs::stereo_msgs::DisparityImage;
 use stereocal_rosbag::{BagReader, TopicFilter};
-use stereocal_vision::stereo::{ReprojectionError, SgmParams, StereoError};
+use stereocal_vision::stereo::{BmParams, ReprojectionError, SgmParams, StereoError};
 
 pub(super) fn synthesize(dir: &Path, frames: usize) {
     let mut args = SynthArgs::new(SceneArg::Depth, dir.to_path_buf(), 3, frames);
@@ -27,6 +27,8 @@ fn depth_args(bag: &Path, out: &Path) -> DepthArgs {
         out: out.to_path_buf(),
         left_topic: None,
         right_topic: None,
+        algorithm: AlgorithmArg::Sgbm,
+        window: BmParams::default().window,
         min_disparity: 0,
         disparity_range: 64,
         paths: PathsArg::Eight,
@@ -313,4 +315,23 @@ fn raw_pairs_are_rectified_first_as_stereocal_rectify_would() {
         valid * 2 > 320 * 240,
         "only {valid} of the raw pair's disparities are valid"
     );
+}
+
+#[test]
+fn block_matching_finds_the_rendered_disparities_too() {
+    let dir = tempfile::tempdir().unwrap();
+    synthesize(dir.path(), 1);
+    let out = dir.path().join("depth");
+    let mut args = depth_args(&dir.path().join("bag"), &out);
+    args.algorithm = AlgorithmArg::Bm;
+    args.window = 9;
+    stereocal::cli::depth::run(&args).unwrap();
+    let disparities: Vec<DisparityImage> = messages(&out, "/stereo/disparity");
+    assert_eq!(disparities.len(), 1);
+    let scores = read_truth(dir.path(), 0).unwrap().score(&disparities[0]);
+    // Block matching leaves weakly textured surfaces and occlusion borders empty, but
+    // what it finds is right.
+    assert!(scores.density > 0.5, "{scores:?}");
+    assert!(scores.bad1 < 1.0 - scores.density + 0.05, "{scores:?}");
+    assert!(scores.epe < 0.5, "{scores:?}");
 }

@@ -1,12 +1,14 @@
-//! Times semi-global matching per pair, for the side by side comparison with OpenCV's
-//! StereoSGBM (`interop/bench_depth_opencv.py`), and writes each disparity map.
+//! Times semi-global matching (or block matching) per pair, for the side by side
+//! comparison with OpenCV's StereoSGBM and StereoBM (`interop/bench_depth_opencv.py`),
+//! and writes each disparity map.
 //!
 //! ```text
 //! stereo_timing PAIRS.json [--repeats N] [--threads N]
 //! ```
 //!
-//! PAIRS.json: `{"params": SgmParams, "pairs": [{"left": PNG, "right": PNG, "out":
-//! PFM}, ..]}` (mono8 PNGs of a rectified pair; `params` as [`SgmParams`] serializes).
+//! PAIRS.json: `{"algorithm": "sgm" | "bm", "params": .., "pairs": [{"left": PNG,
+//! "right": PNG, "out": PFM}, ..]}` (mono8 PNGs of a rectified pair; `params` as
+//! [`SgmParams`] or, for `"bm"`, [`BmParams`] serializes; `algorithm` defaults to sgm).
 //! Each pair is matched once untimed, then `--repeats` times; printed as JSON: per pair
 //! the median and the smallest time, milliseconds, and the density. The disparity
 //! (NaN invalid) goes to `out` as a little-endian PFM, rows bottom to top. `--threads`
@@ -18,7 +20,9 @@ use std::time::Instant;
 use anyhow::{Context, Result, anyhow, bail};
 use serde::Deserialize;
 use stereocal_vision::image::{Image, Samples};
-use stereocal_vision::stereo::{DisparityMap, SemiGlobalMatcher, SgmParams};
+use stereocal_vision::stereo::{
+    BlockMatcher, BmParams, DisparityMap, SemiGlobalMatcher, SgmParams,
+};
 
 #[derive(Deserialize)]
 struct Pair {
@@ -29,8 +33,45 @@ struct Pair {
 
 #[derive(Deserialize)]
 struct Pairs {
-    params: SgmParams,
+    #[serde(default)]
+    algorithm: Algorithm,
+    params: serde_json::Value,
     pairs: Vec<Pair>,
+}
+
+#[derive(Deserialize, Default, Clone, Copy)]
+#[serde(rename_all = "snake_case")]
+enum Algorithm {
+    #[default]
+    Sgm,
+    Bm,
+}
+
+/// The matcher the pairs file asks for.
+enum Matcher {
+    Sgm(SemiGlobalMatcher),
+    Bm(BlockMatcher),
+}
+
+impl Matcher {
+    fn new(algorithm: Algorithm, params: serde_json::Value) -> Result<Self> {
+        Ok(match algorithm {
+            Algorithm::Sgm => Self::Sgm(SemiGlobalMatcher::new(
+                serde_json::from_value::<SgmParams>(params).context("SGM params")?,
+            )),
+            Algorithm::Bm => Self::Bm(BlockMatcher::new(
+                serde_json::from_value::<BmParams>(params).context("BM params")?,
+            )),
+        })
+    }
+
+    fn compute_into(&mut self, left: &Image, right: &Image, out: &mut DisparityMap) -> Result<()> {
+        match self {
+            Self::Sgm(m) => m.compute_into(left, right, out)?,
+            Self::Bm(m) => m.compute_into(left, right, out)?,
+        }
+        Ok(())
+    }
 }
 
 struct Args {
@@ -96,11 +137,18 @@ fn main() -> Result<()> {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()?;
-    let mut matcher = SemiGlobalMatcher::new(input.params);
+    let mut matcher = Matcher::new(input.algorithm, input.params)?;
     let mut report = Vec::new();
     for pair in &input.pairs {
         let (left, right) = (read_mono(&pair.left)?, read_mono(&pair.right)?);
-        let mut map = pool.install(|| matcher.compute(&left, &right))?;
+        let mut map = DisparityMap {
+            width: 0,
+            height: 0,
+            min_disparity: 0,
+            disparity_range: 0,
+            data: Vec::new(),
+        };
+        pool.install(|| matcher.compute_into(&left, &right, &mut map))?;
         let mut times = Vec::with_capacity(args.repeats);
         for _ in 0..args.repeats {
             let start = Instant::now();

@@ -1,5 +1,6 @@
 //! Dense stereo matching of rectified pairs: semi-global matching on census costs with
-//! sub-pixel refinement on the images, and what a disparity map gives (depth, points).
+//! sub-pixel refinement on the images, block matching for the cheapest hardware, and
+//! what a disparity map gives (depth, points).
 //!
 //! Conventions: a pair is rectified (epipolar lines are image rows); the disparity of a
 //! left pixel `x` is `x - x_right`, in pixels, with pixel centres at integer
@@ -7,6 +8,7 @@
 
 mod aggregate;
 mod aligned;
+mod bm;
 mod census;
 mod cost;
 mod params;
@@ -17,6 +19,7 @@ mod sgm;
 mod simd;
 mod speckle;
 
+pub use bm::{BlockMatcher, BmParams};
 pub use census::{BITS as CENSUS_BITS, Sample, census_transform};
 pub use params::{MAX_P2, MAX_REFINE_RADIUS, Paths, SgmParams};
 pub use reproject::{Reprojection, ReprojectionError};
