@@ -108,7 +108,7 @@ impl MatcherParams {
 
 /// A matcher of either kind.
 enum Matcher {
-    Sgm(SemiGlobalMatcher),
+    Sgm(Box<SemiGlobalMatcher>),
     Bm(BlockMatcher),
 }
 
@@ -125,7 +125,9 @@ impl DepthStage {
     pub fn new(params: impl Into<MatcherParams>) -> Self {
         Self {
             matcher: match params.into() {
-                MatcherParams::Sgm(params) => Matcher::Sgm(SemiGlobalMatcher::new(params)),
+                MatcherParams::Sgm(params) => {
+                    Matcher::Sgm(Box::new(SemiGlobalMatcher::new(params)))
+                }
                 MatcherParams::Bm(params) => Matcher::Bm(BlockMatcher::new(params)),
             },
             left: Image::zeros_u8(0, 0, 1),

@@ -49,16 +49,16 @@ enum Algorithm {
 
 /// The matcher the pairs file asks for.
 enum Matcher {
-    Sgm(SemiGlobalMatcher),
+    Sgm(Box<SemiGlobalMatcher>),
     Bm(BlockMatcher),
 }
 
 impl Matcher {
     fn new(algorithm: Algorithm, params: serde_json::Value) -> Result<Self> {
         Ok(match algorithm {
-            Algorithm::Sgm => Self::Sgm(SemiGlobalMatcher::new(
+            Algorithm::Sgm => Self::Sgm(Box::new(SemiGlobalMatcher::new(
                 serde_json::from_value::<SgmParams>(params).context("SGM params")?,
-            )),
+            ))),
             Algorithm::Bm => Self::Bm(BlockMatcher::new(
                 serde_json::from_value::<BmParams>(params).context("BM params")?,
             )),

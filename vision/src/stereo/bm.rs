@@ -329,13 +329,13 @@ fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32]) {
         // The window sum at x_lo, then slid one column at a time.
         window.fill(0);
         let mut window_texture = 0u32;
-        for c in 0..params.window {
-            for (w, &s) in window.iter_mut().zip(&sad[c * range..(c + 1) * range]) {
+        for (column, &tex) in sad.chunks_exact(range).zip(&texture).take(params.window) {
+            for (w, &s) in window.iter_mut().zip(column) {
                 *w += u32::from(s);
             }
-            window_texture += texture[c];
+            window_texture += tex;
         }
-        for x in x_lo..=x_hi {
+        for (x, slot) in (x_lo..=x_hi).zip(&mut chosen[x_lo..=x_hi]) {
             if x > x_lo {
                 let c_in = x + half - column_lo;
                 let c_out = x - half - 1 - column_lo;
@@ -357,7 +357,7 @@ fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32]) {
                 }
             }
             if window_texture >= params.texture_threshold {
-                chosen[x] = choose(&window, params.uniqueness_ratio);
+                *slot = choose(&window, params.uniqueness_ratio);
             }
         }
         let row = &mut out[(y - first) * width..(y - first + 1) * width];
