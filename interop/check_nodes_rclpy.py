@@ -48,6 +48,8 @@ nodes around it would see:
   any frame, a sample taken on every frame, `~/compute` equal (1e-9) to `stereocal
   handeye --json` on the same bag and within three predicted standard deviations of
   the truth, `~/save` writing the YAML PyYAML reads and report.html, `~/reset`;
+- block matching: disparity_node with `stereo_algorithm: 0` publishes the disparity of
+  every rendered pair equal to `stereocal depth --algorithm bm`'s;
 - the whole stereo pipeline: both rectify nodes, disparity_node and point_cloud_node in
   one `stereocal node compose` process, fed raw (distorted) stereo frames from rclpy,
   publish the disparity and points2 of every pair equal to `stereocal rectify` then
@@ -1434,7 +1436,7 @@ class Disparity:
     label, name, namespace = "disparity_node", "disparity_node", "/stereo"
     fqn = "/stereo/disparity_node"
 
-    def __init__(self, peer, binary):
+    def __init__(self, peer, binary, params=None):
         self.peer = peer
         node = peer.node
         self.images = [node.create_publisher(Image, f"/stereo/{side}/image_rect", RELIABLE)
@@ -1453,9 +1455,9 @@ class Disparity:
         }
         # stereocal depth matches with the library's defaults, stereo_image_proc's
         # differ in uniqueness_ratio, speckle_range and disp12_max_diff: given here.
-        self.command = [binary, "--ros-args", "-r", "__ns:=/stereo", "-p", "disparity_range:=64",
-                        "-p", "uniqueness_ratio:=5.0", "-p", "speckle_range:=2",
-                        "-p", "disp12_max_diff:=1"]
+        self.command = [binary, "--ros-args", "-r", "__ns:=/stereo", *(params or [
+            "-p", "disparity_range:=64", "-p", "uniqueness_ratio:=5.0", "-p", "speckle_range:=2",
+            "-p", "disp12_max_diff:=1"])]
         self.process = NodeProcess(self.command, peer.domain)
         peer.watch(self.process)
         self.params = Parameters(peer, self.fqn)
@@ -1623,6 +1625,44 @@ def disparity_checks(checks, peer, rosout, d, pairs, offline):
              f"{described.step}; exit code {code}")
 
     describe_all_check(checks, label, d.params)
+
+
+def check_disparity_bm(checks, peer, rosout, binary, stereocal):
+    """disparity_node with `stereo_algorithm: 0` (block matching): the disparity of
+    every rendered pair equal to `stereocal depth --algorithm bm`'s."""
+    label = "disparity_node (block matching)"
+    setup = f"setup: stereocal synth --scene depth ({DEPTH_FRAMES} pairs), stereocal depth --algorithm bm"
+    with tempfile.TemporaryDirectory() as tmp:
+        with checks.check(label, setup):
+            pairs, _ = depth_session(stereocal, tmp)
+            subprocess.run([stereocal, "depth", "--bag", str(Path(tmp) / "synth" / "bag"),
+                            "--out", str(Path(tmp) / "bm"), "--algorithm", "bm",
+                            "--disparity-range", "64"], check=True, capture_output=True)
+            offline = {stamp_of(m): m for _, m in bag_messages(Path(tmp) / "bm", [DISPARITY])}
+            require(len(offline) == DEPTH_FRAMES, f"{len(offline)} offline disparities")
+        if not checks.passed(label, setup):
+            return checks.skip(label, "the other checks", "no synthesized pairs")
+        d = Disparity(peer, binary, ["-p", "stereo_algorithm:=0", "-p", "disparity_range:=64",
+                                     "-p", "disp12_max_diff:=1"])
+        try:
+            if not discovered(checks, peer, label, d.name, d.namespace):
+                return checks.skip(label, "the other checks", "the node was not discovered")
+            what = "disparity of every pair equal to stereocal depth --algorithm bm's"
+            with checks.check(label, what) as note:
+                peer.wait_until(lambda: all(p.get_subscription_count() > 0
+                                            for p in (*d.images, *d.infos)),
+                                "disparity_node's image and camera_info subscriptions")
+                for pair in pairs:
+                    stamp = stamp_of(pair[0])
+                    reliable, _ = d.send_until(pair, lambda stamp=stamp: d.received(stamp),
+                                               "disparity on both subscribers")
+                    got = np.frombuffer(bytes(reliable.image.data), dtype="<f4")
+                    want = np.frombuffer(offline[stamp].image.data.tobytes(), dtype="<f4")
+                    require(np.array_equal(got, want),
+                            f"pair {stamp}: disparities differ from stereocal depth --algorithm bm's")
+                note(f"{np.mean(got >= reliable.min_disparity):.1%} of the last pair's disparities valid")
+        finally:
+            stop_and_check(checks, peer, d.process, label, d.name, d.namespace)
 
 
 # ---------------------------------------------------------------------------------------
@@ -1874,6 +1914,7 @@ def main():
                 check_handeye(checks, peer, rosout, args.handeye_node, args.stereocal)
             if args.only in (None, "disparity"):
                 check_disparity(checks, peer, rosout, args.disparity_node, args.stereocal)
+                check_disparity_bm(checks, peer, rosout, args.disparity_node, args.stereocal)
             if args.only in (None, "point_cloud"):
                 check_point_cloud(checks, peer, rosout, args.disparity_node,
                                   args.point_cloud_node, args.stereocal)

@@ -51,7 +51,8 @@ pub struct BmParams {
 }
 
 impl Default for BmParams {
-    /// stereo_image_proc's block-matching defaults, with 64 disparities.
+    /// stereo_image_proc's block-matching defaults, with 64 disparities and the
+    /// left-right check of [`super::SgmParams`]'s defaults (1 px).
     fn default() -> Self {
         Self {
             min_disparity: 0,
@@ -60,7 +61,7 @@ impl Default for BmParams {
             prefilter_cap: 31,
             texture_threshold: 10,
             uniqueness_ratio: 15,
-            disp12_max_diff: None,
+            disp12_max_diff: Some(1),
             speckle_size: 100,
             speckle_range: 4.0,
         }
