@@ -52,6 +52,9 @@ struct RectifyWorker {
     publisher: TopicPublisher<Image>,
     compressed: TopicPublisher<CompressedImage>,
     rectifier: Option<Rectifier>,
+    /// The last image published: its data is remapped into again once every
+    /// subscriber has let go of it.
+    last: Option<Arc<Image>>,
     published: u64,
     throttle: Throttle,
 }
@@ -106,6 +109,9 @@ impl Worker for RectifyWorker {
                 ..RemapOptions::default()
             })),
         };
+        if let Some(last) = self.last.take().and_then(|last| Arc::try_unwrap(last).ok()) {
+            rectifier.recycle(last);
+        }
         match rectifier.rectify(image, info) {
             Ok(Rectified::Image(rect)) => {
                 let rect = Arc::new(rect);
@@ -114,6 +120,7 @@ impl Worker for RectifyWorker {
                     Err(e) => self.throttle.warn(format!("image_rect not published: {e}")),
                 }
                 self.publish_compressed(&rect, work.compression);
+                self.last = Some(rect);
             }
             Ok(Rectified::Uncalibrated { warning }) => {
                 if let Some(warning) = warning {
@@ -198,6 +205,7 @@ where
         compressed: node
             .advertise::<CompressedImage>("image_rect/compressed", qos::reliable(queue_size))?,
         rectifier: None,
+        last: None,
         published: 0,
         throttle: Throttle::new(node.clock()),
     };

@@ -6,11 +6,14 @@ use std::sync::Arc;
 
 use stereocal_msgs::sensor_msgs::{CameraInfo, Image as ImageMsg};
 use stereocal_vision::image::{Image, Samples};
-use stereocal_vision::rectify::{MapError, RectifyMap, RemapError, RemapOptions, remap_into};
+use stereocal_vision::rectify::{
+    MapError, RectifyMap, RemapError, RemapOptions, remap_into, remap_u8_into,
+};
 use thiserror::Error;
 
 use crate::convert::{
-    CameraInfoError, ImageMsgError, calibrated_camera_from_info, decode_image_into, msg_from_image,
+    CameraInfoError, Encoding, ImageMsgError, calibrated_camera_from_info, decode_image_into,
+    msg_from_image,
 };
 
 /// Why a frame could not be rectified. The [`Rectifier`] stays usable: the next frame
@@ -122,6 +125,12 @@ impl Rectifier {
         self.options
     }
 
+    /// Gives back the data of an image this rectifier made, once nobody holds it any
+    /// more, for the next frame to be remapped into without allocating.
+    pub fn recycle(&mut self, image: ImageMsg) {
+        self.rectified.samples = Samples::U8(image.data);
+    }
+
     /// How many maps have been built so far.
     pub fn map_builds(&self) -> usize {
         self.maps.builds
@@ -179,6 +188,10 @@ pub enum Plan {
 /// Rectifies `image` with `map`, decoding it into `source` and remapping into
 /// `rectified` (both reshaped as needed, so that buffers can be reused from frame to
 /// frame). The output has the input's encoding and header and the map's size.
+///
+/// An 8-bit image whose rows are packed (`step` is the row's bytes) is remapped
+/// straight from the message, and into the vector of `rectified` that becomes the
+/// output's data: no pixel is copied. [`Rectifier::recycle`] gives such a vector back.
 pub fn remap_image_msg(
     image: &ImageMsg,
     map: &RectifyMap,
@@ -193,6 +206,38 @@ pub fn remap_image_msg(
             info_width: map.width() as u32,
             info_height: map.height() as u32,
         });
+    }
+    if let Some(encoding) = Encoding::from_ros_name(&image.encoding)
+        && encoding.bytes_per_sample() == 1
+    {
+        let channels = encoding.channels();
+        let row_bytes = image.width as usize * channels;
+        if image.step as usize == row_bytes && image.data.len() == row_bytes * image.height as usize
+        {
+            let mut data = match &mut rectified.samples {
+                Samples::U8(v) => std::mem::take(v),
+                Samples::U16(_) => Vec::new(),
+            };
+            data.resize(map.width() * map.height() * channels, 0);
+            remap_u8_into(
+                &image.data,
+                image.width as usize,
+                image.height as usize,
+                channels,
+                map,
+                &mut data,
+                options,
+            )?;
+            return Ok(ImageMsg {
+                header: image.header.clone(),
+                height: image.height,
+                width: image.width,
+                encoding: image.encoding.clone(),
+                is_bigendian: 0,
+                step: image.step,
+                data,
+            });
+        }
     }
     let encoding = decode_image_into(image, source)?;
     shape_like(rectified, source, map);

@@ -7,7 +7,9 @@ mod stereo;
 mod uncalibrated;
 
 pub use map::{INTER_BITS, INTER_TAB_SIZE, MapError, RectifyMap};
-pub use remap::{Interpolation, Parallelism, RemapError, RemapOptions, remap, remap_into};
+pub use remap::{
+    Interpolation, Parallelism, RemapError, RemapOptions, remap, remap_into, remap_u8_into,
+};
 pub use stereo::{
     StereoLayout, StereoRectification, StereoRectifyError, StereoRectifyOptions,
     fisheye_stereo_rectify, stereo_rectify,

@@ -177,6 +177,46 @@ pub fn remap_into(
     Ok(())
 }
 
+/// [`remap_into`] for 8-bit samples held in plain slices, so that a caller holding the
+/// pixels in another container (an image message) remaps without copying them:
+/// `src` holds `width * height * channels` samples row after row, and `dst` receives
+/// the map's `width * height * channels`.
+pub fn remap_u8_into(
+    src: &[u8],
+    width: usize,
+    height: usize,
+    channels: usize,
+    map: &RectifyMap,
+    dst: &mut [u8],
+    options: RemapOptions,
+) -> Result<(), RemapError> {
+    if !(1..=4).contains(&channels) {
+        return Err(RemapError::UnsupportedChannels(channels));
+    }
+    let expected = width * height * channels;
+    if src.len() != expected {
+        return Err(RemapError::SourceSize {
+            width,
+            height,
+            channels,
+            actual: src.len(),
+            expected,
+        });
+    }
+    if dst.len() != map.width() * map.height() * channels {
+        return Err(RemapError::DestinationShape {
+            width: map.width(),
+            height: dst.len() / (map.width() * channels).max(1),
+            channels,
+            expected_width: map.width(),
+            expected_height: map.height(),
+            expected_channels: channels,
+        });
+    }
+    remap_samples(src, width, height, channels, map, dst, options);
+    Ok(())
+}
+
 /// A row kernel: source, the map's row, the output row.
 type RowKernel<T> = fn(Source<'_, T>, &[[i16; 2]], &[u16], &mut [T]);
 
