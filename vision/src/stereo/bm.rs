@@ -14,6 +14,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::params::{validate_filters, validate_search};
 use super::simd;
 use super::speckle::SpeckleFilter;
 use super::{DisparityMap, StereoError, check_pair};
@@ -71,24 +72,7 @@ impl Default for BmParams {
 impl BmParams {
     /// Checks the parameters against an image `width` pixels wide.
     pub fn validate(&self, width: usize) -> Result<(), StereoError> {
-        if self.disparity_range == 0 || !self.disparity_range.is_multiple_of(16) {
-            return Err(StereoError::DisparityRange {
-                range: self.disparity_range,
-                reason: "it must be a positive multiple of 16".into(),
-            });
-        }
-        if self.disparity_range >= width {
-            return Err(StereoError::DisparityRange {
-                range: self.disparity_range,
-                reason: format!("it must be below the image width of {width} pixels"),
-            });
-        }
-        if self.min_disparity.unsigned_abs() as usize >= width {
-            return Err(StereoError::Parameter(format!(
-                "min_disparity {} must be within the image width of {width} pixels",
-                self.min_disparity
-            )));
-        }
+        validate_search(self.min_disparity, self.disparity_range, width)?;
         if !(5..=255).contains(&self.window) || self.window.is_multiple_of(2) {
             return Err(StereoError::Parameter(format!(
                 "the matching window must be odd, from 5 to 255 pixels, got {}",
@@ -101,19 +85,7 @@ impl BmParams {
                 self.prefilter_cap
             )));
         }
-        if self.uniqueness_ratio >= 100 {
-            return Err(StereoError::Parameter(format!(
-                "uniqueness_ratio is a percentage below 100, got {}",
-                self.uniqueness_ratio
-            )));
-        }
-        if !(self.speckle_range.is_finite() && self.speckle_range >= 0.0) {
-            return Err(StereoError::Parameter(format!(
-                "speckle_range must be a non-negative number of pixels, got {}",
-                self.speckle_range
-            )));
-        }
-        Ok(())
+        validate_filters(self.uniqueness_ratio, self.speckle_range)
     }
 }
 

@@ -77,34 +77,11 @@ pub const MAX_P2: u16 = 8000 - census::BITS as u16;
 impl SgmParams {
     /// Checks the parameters against an image `width` pixels wide.
     pub fn validate(&self, width: usize) -> Result<(), StereoError> {
-        if self.disparity_range == 0 || !self.disparity_range.is_multiple_of(16) {
-            return Err(StereoError::DisparityRange {
-                range: self.disparity_range,
-                reason: "it must be a positive multiple of 16".into(),
-            });
-        }
-        if self.disparity_range >= width {
-            return Err(StereoError::DisparityRange {
-                range: self.disparity_range,
-                reason: format!("it must be below the image width of {width} pixels"),
-            });
-        }
-        if self.min_disparity.unsigned_abs() as usize >= width {
-            return Err(StereoError::Parameter(format!(
-                "min_disparity {} must be within the image width of {width} pixels",
-                self.min_disparity
-            )));
-        }
+        validate_search(self.min_disparity, self.disparity_range, width)?;
         if self.p1 == 0 || self.p2 < self.p1 || self.p2 > MAX_P2 {
             return Err(StereoError::Parameter(format!(
                 "the penalties must satisfy 0 < P1 <= P2 <= {MAX_P2}, got P1 {} and P2 {}",
                 self.p1, self.p2
-            )));
-        }
-        if self.uniqueness_ratio >= 100 {
-            return Err(StereoError::Parameter(format!(
-                "uniqueness_ratio is a percentage below 100, got {}",
-                self.uniqueness_ratio
             )));
         }
         if self.refine_radius > MAX_REFINE_RADIUS {
@@ -113,12 +90,52 @@ impl SgmParams {
                 self.refine_radius
             )));
         }
-        if !(self.speckle_range.is_finite() && self.speckle_range >= 0.0) {
-            return Err(StereoError::Parameter(format!(
-                "speckle_range must be a non-negative number of pixels, got {}",
-                self.speckle_range
-            )));
-        }
-        Ok(())
+        validate_filters(self.uniqueness_ratio, self.speckle_range)
     }
+}
+
+/// Checks a disparity search of `range` disparities from `min_disparity` against an
+/// image `width` pixels wide: what both matchers require.
+pub(crate) fn validate_search(
+    min_disparity: i32,
+    range: usize,
+    width: usize,
+) -> Result<(), StereoError> {
+    if range == 0 || !range.is_multiple_of(16) {
+        return Err(StereoError::DisparityRange {
+            range,
+            reason: "it must be a positive multiple of 16".into(),
+        });
+    }
+    if range >= width {
+        return Err(StereoError::DisparityRange {
+            range,
+            reason: format!("it must be below the image width of {width} pixels"),
+        });
+    }
+    if min_disparity.unsigned_abs() as usize >= width {
+        return Err(StereoError::Parameter(format!(
+            "min_disparity {min_disparity} must be within the image width of {width} pixels"
+        )));
+    }
+    Ok(())
+}
+
+/// Checks the uniqueness ratio (a percentage below 100) and the speckle filter's range
+/// (non-negative pixels) that both matchers take.
+pub(crate) fn validate_filters(
+    uniqueness_ratio: u32,
+    speckle_range: f32,
+) -> Result<(), StereoError> {
+    if uniqueness_ratio >= 100 {
+        return Err(StereoError::Parameter(format!(
+            "uniqueness_ratio is a percentage below 100, got {uniqueness_ratio}"
+        )));
+    }
+    if !(speckle_range.is_finite() && speckle_range >= 0.0) {
+        return Err(StereoError::Parameter(format!(
+            "speckle_range must be a non-negative number of pixels, got {speckle_range}"
+        )));
+    }
+    Ok(())
 }
