@@ -2,5 +2,6 @@
 //! on its test pattern over DDS (topics, stamps, `set_camera_info`, a missing device,
 //! and the calibration loop from calibrate_node's `~/commit`).
 
+mod calibration_loop;
 mod node;
 mod stage;
