@@ -307,3 +307,47 @@ fn a_missing_device_keeps_the_node_running_and_an_unwritable_url_is_refused() {
     assert!(exit.logs.contains("trying again in"), "{}", exit.logs);
     assert!(!exit.logs.contains("panicked"), "{}", exit.logs);
 }
+
+#[test]
+fn a_stereo_pair_reports_the_stamp_differences_of_its_cameras() {
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut right = CameraPeer::new(&domain, "/stereo/right");
+    let camera = |side: &str, partner: &str| {
+        let mut params = vec![
+            "video_device:=test_pattern".to_owned(),
+            "image_width:=160".into(),
+            "image_height:=120".into(),
+            "framerate:=20.0".into(),
+            format!("camera_name:={side}"),
+            format!("camera_info_url:={}", url(dir.path(), "${NAME}.yaml")),
+        ];
+        if !partner.is_empty() {
+            params.push(format!("stereo_partner:={partner}"));
+        }
+        start_camera(&domain, &format!("/stereo/{side}"), &params)
+    };
+    let left_node = camera("left", "");
+    let right_node = camera("right", "/stereo/left/camera_info");
+    right.wait_for_status("20 pairs matched", |s| {
+        s["stereo_sync"]["pairs"].as_u64() >= Some(20)
+    });
+    let sync = &right.last_status["stereo_sync"];
+    println!("stereo_sync: {sync}");
+    assert_eq!(sync["partner"], "/stereo/left/camera_info");
+    // Two free-running cameras at 20 fps: the nearest left frame of each right frame is
+    // at most half a frame interval away, give or take scheduling.
+    let median = sync["median_abs_ms"].as_f64().expect("a median");
+    let max = sync["max_abs_ms"].as_f64().expect("a maximum");
+    assert!(median <= 25.0 + 5.0, "median |difference| {median} ms");
+    assert!(max >= median && max < 50.0, "max |difference| {max} ms");
+    assert!(
+        sync["last_ms"]
+            .as_f64()
+            .is_some_and(|last| last.abs() <= max)
+    );
+    for node in [right_node, left_node] {
+        let exit = node.terminate();
+        assert!(exit.clean(), "{}", exit.logs);
+    }
+}
