@@ -351,3 +351,55 @@ fn a_stereo_pair_reports_the_stamp_differences_of_its_cameras() {
         assert!(exit.clean(), "{}", exit.logs);
     }
 }
+
+#[test]
+fn with_sim_time_frames_are_stamped_on_the_clock_topic() {
+    use stereocal_msgs::builtin_interfaces::Time;
+    use stereocal_msgs::rosgraph_msgs::Clock;
+
+    let domain = DomainLease::for_test().expect("a ROS domain");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut camera = CameraPeer::new(&domain, "/cam");
+    let clock = camera
+        .peer
+        .publisher::<Clock>("/clock", qos::reliable(1))
+        .expect("clock publisher");
+    let process = start_camera(
+        &domain,
+        "/cam",
+        &[
+            "video_device:=test_pattern".into(),
+            "image_width:=160".into(),
+            "image_height:=120".into(),
+            "use_sim_time:=true".into(),
+            format!("camera_info_url:={}", url(dir.path(), "${NAME}.yaml")),
+        ],
+    );
+    camera.wait_for_status("streaming", |s| s["state"]["state"] == "streaming");
+    let sim = Time::from_nanos(1_000_000_000_000);
+    // /clock is best-effort on the node's side: published until frames carry it.
+    let deadline = Instant::now() + TIMEOUT;
+    let stamped = loop {
+        clock.publish(Clock { clock: sim }).expect("publish /clock");
+        let mut found = None;
+        while let Ok(Some((image, _))) = camera.images.take() {
+            if image.header.stamp.sec >= 999 {
+                found = Some(image.header.stamp);
+            }
+        }
+        if let Some(stamp) = found {
+            break stamp;
+        }
+        assert!(Instant::now() < deadline, "no frame on simulated time");
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    // The simulated clock stands at 1000 s: a frame is stamped with it less its age.
+    let age = sim.seconds_since(&stamped);
+    assert!(
+        (0.0..1.0).contains(&age),
+        "stamp {stamped:?}, {age} s before /clock"
+    );
+    let exit = process.terminate();
+    assert!(exit.clean(), "{}", exit.logs);
+    assert!(exit.logs.contains("clock from /clock"), "{}", exit.logs);
+}
