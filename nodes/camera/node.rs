@@ -233,7 +233,6 @@ impl Camera {
         let Some(mode) = self.connection.mode() else {
             return;
         };
-        let sequence = frame.sequence;
         let messages = match self.output.convert(frame, &mode, stamp, &self.settings) {
             Ok(messages) => messages,
             Err(reason) => {
@@ -282,7 +281,6 @@ impl Camera {
         if let Some((_, sync)) = &mut self.endpoints.partner {
             sync.own_frame(stamp);
         }
-        log::trace!("frame {sequence} published");
     }
 
     fn serve_set_camera_info(&mut self) {

