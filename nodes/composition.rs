@@ -8,7 +8,8 @@
 //!
 //! ```yaml
 //! nodes:
-//!   - node: rectify          # which node: rectify, calibrate or pose
+//!   - node: rectify          # which node: rectify, calibrate, pose, handeye, disparity,
+//!                            # point_cloud or camera
 //!     args: [-r, __ns:=/stereo/left, -r, image:=image_raw]   # its ROS arguments
 //!   - node: rectify
 //!     args: [-r, __ns:=/stereo/right, -r, image:=image_raw]
