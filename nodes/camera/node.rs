@@ -397,18 +397,19 @@ where
     let video_device = startup_string(&args, "video_device")?;
     let opened = open_device(&video_device);
     let taken: Vec<String> = base_specs().into_iter().map(|s| s.name).collect();
-    let (controls, control_specs) = match &opened {
-        Ok(device) => match device.controls() {
-            Ok(list) => ControlParams::new(&list, &taken),
-            Err(_) => ControlParams::new(&[], &taken),
-        },
-        Err(_) => ControlParams::new(&[], &taken),
+    let listed = opened.as_ref().ok().map(|device| device.controls());
+    let (controls, control_specs) = match &listed {
+        Some(Ok(list)) => ControlParams::new(list, &taken),
+        _ => ControlParams::new(&[], &taken),
     };
     let mut builder = NodeBuilder::new(NODE_NAME);
     for spec in base_specs().into_iter().chain(control_specs) {
         builder = builder.param(spec);
     }
     let mut node = builder.start(args)?;
+    if let Some(Err(e)) = listed {
+        log::warn!("the device's controls are not parameters of this run: {e}");
+    }
     let (device, opened_now) = match opened {
         Ok(device) => (Some(device), true),
         Err(e) => {

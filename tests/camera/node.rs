@@ -247,7 +247,8 @@ fn the_test_pattern_publishes_stamped_frames_and_set_camera_info_stores_a_calibr
     assert_eq!(calibrated.d, calibration(320, 240).d);
     assert_eq!(calibrated.header.frame_id, "left_optical");
     camera.wait_for_status("calibrated", |s| s["camera_info"]["calibrated"] == true);
-    assert!(camera.last_status["frames"]["captured"].as_u64() > Some(5));
+    // At least the five images received above.
+    assert!(camera.last_status["frames"]["captured"].as_u64() >= Some(5));
     assert_eq!(camera.last_status["frames"]["bad_frames"], 0);
 
     let exit = process.terminate();
@@ -336,11 +337,12 @@ fn a_stereo_pair_reports_the_stamp_differences_of_its_cameras() {
     println!("stereo_sync: {sync}");
     assert_eq!(sync["partner"], "/stereo/left/camera_info");
     // Two free-running cameras at 20 fps: the nearest left frame of each right frame is
-    // at most half a frame interval away, give or take scheduling.
+    // at most half a frame interval (25 ms) away, give or take scheduling: the median
+    // holds to that, a frame captured late on a loaded machine may lie further.
     let median = sync["median_abs_ms"].as_f64().expect("a median");
     let max = sync["max_abs_ms"].as_f64().expect("a maximum");
     assert!(median <= 25.0 + 5.0, "median |difference| {median} ms");
-    assert!(max >= median && max < 50.0, "max |difference| {max} ms");
+    assert!(max >= median && max < 100.0, "max |difference| {max} ms");
     assert!(
         sync["last_ms"]
             .as_f64()
