@@ -538,3 +538,42 @@ fn a_camera_info_url_that_cannot_be_written_answers_why() {
             .expect_err("no size");
     assert!(refused.contains("no image size"), "{refused}");
 }
+
+/// `jpeg` without its Huffman tables (DHT segments), as many UVC cameras send MJPEG:
+/// the decoder must use the standard tables of JPEG's Annex K, which the encoder used.
+fn without_huffman_tables(jpeg: &[u8]) -> Vec<u8> {
+    let mut out = jpeg[..2].to_vec();
+    let mut at = 2;
+    while at + 4 <= jpeg.len() && jpeg[at] == 0xff && jpeg[at + 1] != 0xda {
+        let length = usize::from(u16::from_be_bytes([jpeg[at + 2], jpeg[at + 3]]));
+        if jpeg[at + 1] != 0xc4 {
+            out.extend_from_slice(&jpeg[at..at + 2 + length]);
+        }
+        at += 2 + length;
+    }
+    out.extend_from_slice(&jpeg[at..]);
+    out
+}
+
+#[test]
+fn mjpeg_frames_without_huffman_tables_decode_like_whole_jpegs() {
+    let whole = jpeg(&rgb_frame(6));
+    let bare = without_huffman_tables(&whole);
+    assert!(bare.len() < whole.len(), "the tables were removed");
+    assert!(!bare.windows(2).any(|w| w == [0xff, 0xc4]));
+    let mut output = FrameOutput::new();
+    let mut decode = |data: Vec<u8>| {
+        output
+            .convert(
+                frame(data, 0, 0),
+                &mode(PixelFormat::Mjpeg),
+                Time::default(),
+                &settings(OutputEncoding::Rgb8, MjpegOutput::Raw),
+            )
+            .expect("decoded")
+            .image
+            .expect("image_raw")
+            .data
+    };
+    assert_eq!(decode(bare), decode(whole));
+}
