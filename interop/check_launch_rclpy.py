@@ -10,7 +10,7 @@ and the parameter values from the params file and the launch arguments. Every no
 then stop cleanly on SIGTERM, as it does when `ros2 launch` is interrupted.
 
 Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin pose_node --bin handeye_node
---bin stereocal`):
+--bin disparity_node --bin point_cloud_node --bin camera_node --bin stereocal`):
     .venv/bin/python interop/check_launch_rclpy.py
 """
 
@@ -31,7 +31,8 @@ ROOT = Path(__file__).resolve().parent.parent
 RECTIFY_PARAMS = {"interpolation": 2, "queue_size": 3}
 #: Launch arguments that only say where an executable is (left out of the check names).
 EXECUTABLES = {"rectify_node", "calibrate_node", "pose_node", "handeye_node", "disparity_node",
-               "point_cloud_node", "stereocal", "params_file", "rectify_params_file"}
+               "point_cloud_node", "camera_node", "stereocal", "params_file",
+               "rectify_params_file"}
 #: The params file launch/pose.launch.py gives pose_node by default.
 POSE_PARAMS_FILE = ROOT / "config" / "pose_node.yaml"
 
@@ -113,8 +114,31 @@ def depth_graph(camera, disparity_range):
     }
 
 
+#: The params file launch/camera.launch.py and launch/stereo_camera.launch.py give
+#: camera_node by default.
+CAMERA_PARAMS_FILE = ROOT / "config" / "camera_node.yaml"
+
+
+def camera_graph(namespace, values, partner=None):
+    """camera_node in `namespace`, as launch/camera.launch.py and
+    launch/stereo_camera.launch.py start it, with config/camera_node.yaml's values and
+    `values` over them; subscribing `partner` (a stereo partner's camera_info)."""
+    params = yaml.safe_load(CAMERA_PARAMS_FILE.read_text())["/**/camera_node"]["ros__parameters"]
+    return {
+        f"{namespace}/camera_node": (
+            {partner: "sensor_msgs/msg/CameraInfo"} if partner else {},
+            {f"{namespace}/image_raw": "sensor_msgs/msg/Image",
+             f"{namespace}/image_raw/compressed": "sensor_msgs/msg/CompressedImage",
+             f"{namespace}/camera_info": "sensor_msgs/msg/CameraInfo",
+             f"{namespace}/camera_node/status": "std_msgs/msg/String"},
+            {},
+            {**params, **values},
+        )
+    }
+
+
 def cases(rectify_node, calibrate_node, pose_node, handeye_node, disparity_node,
-          point_cloud_node, stereocal, rectify_params):
+          point_cloud_node, camera_node, stereocal, rectify_params):
     """(launch file, launch arguments, processes started, {node: (subscribed,
     published, called services, parameter values)}) for every launch file, as its
     documentation describes it."""
@@ -197,6 +221,31 @@ def cases(rectify_node, calibrate_node, pose_node, handeye_node, disparity_node,
                                     "camera": "/my_stereo", "disparity_range": "96"},
          ["/my_stereo/disparity_node", "/my_stereo/point_cloud_node"],
          depth_graph("/my_stereo", 96)),
+        ("camera.launch.py", {"camera_node": camera_node, "video_device": "test_pattern"},
+         ["/camera/camera_node"],
+         camera_graph("/camera", {"video_device": "test_pattern", "camera_name": "camera",
+                                  "frame_id": "camera_optical_frame"})),
+        ("camera.launch.py", {"camera_node": camera_node, "camera": "/front",
+                              "video_device": "test_pattern", "pixel_format": "MJPEG",
+                              "image_width": "320", "image_height": "240", "framerate": "15",
+                              "camera_name": "front"},
+         ["/front/camera_node"],
+         camera_graph("/front", {"video_device": "test_pattern", "pixel_format": "MJPEG",
+                                 "image_width": 320, "image_height": 240, "framerate": 15.0,
+                                 "camera_name": "front"})),
+        ("stereo_camera.launch.py", {"camera_node": camera_node, "left_device": "test_pattern",
+                                     "right_device": "test_pattern", "image_width": "320",
+                                     "image_height": "240"},
+         ["/stereo/left/camera_node", "/stereo/right/camera_node"],
+         {**camera_graph("/stereo/left", {
+             "video_device": "test_pattern", "camera_name": "left", "image_width": 320,
+             "image_height": 240, "frame_id": "left_camera_optical_frame",
+             "stereo_partner": ""}),
+          **camera_graph("/stereo/right", {
+              "video_device": "test_pattern", "camera_name": "right", "image_width": 320,
+              "image_height": 240, "frame_id": "right_camera_optical_frame",
+              "stereo_partner": "/stereo/left/camera_info"},
+              partner="/stereo/left/camera_info")}),
     ]
 
 
@@ -279,21 +328,23 @@ def main():
     parser.add_argument("--disparity-node", default=str(ROOT / "target" / "debug" / "disparity_node"))
     parser.add_argument("--point-cloud-node",
                         default=str(ROOT / "target" / "debug" / "point_cloud_node"))
+    parser.add_argument("--camera-node", default=str(ROOT / "target" / "debug" / "camera_node"))
     parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
     args = parser.parse_args()
     for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.handeye_node,
-                   args.disparity_node, args.point_cloud_node, args.stereocal):
+                   args.disparity_node, args.point_cloud_node, args.camera_node, args.stereocal):
         if not Path(binary).exists():
             sys.exit(f"{binary} not found; build it with `cargo build --bin rectify_node "
                      "--bin calibrate_node --bin pose_node --bin handeye_node "
-                     "--bin disparity_node --bin point_cloud_node --bin stereocal`")
+                     "--bin disparity_node --bin point_cloud_node --bin camera_node "
+                     "--bin stereocal`")
     checks = Checks()
     with tempfile.TemporaryDirectory() as workdir:
         # calibrate_node keeps its samples under $ROS_HOME: a folder of this check's own.
         os.environ["ROS_HOME"] = workdir
         for launch_file, arguments, processes, expected in cases(
                 args.rectify_node, args.calibrate_node, args.pose_node, args.handeye_node,
-                args.disparity_node, args.point_cloud_node, args.stereocal,
+                args.disparity_node, args.point_cloud_node, args.camera_node, args.stereocal,
                 rectify_params_file(workdir)):
             check_case(checks, launch_file, arguments, processes, expected, workdir)
     return checks.table()

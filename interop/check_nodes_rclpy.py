@@ -21,7 +21,10 @@ nodes around it would see:
   going on; its image_rect/compressed, while subscribed, is JPEG by default and PNG once
   `image_rect.compressed.format` is set to png, and OpenCV's imdecode of it equals
   image_rect (PNG) or differs from it on average no more than OpenCV's own JPEG of it at
-  the same quality does (within 10 %); calibrate_node, fed a synthesized stereo session (`stereocal synth`) from
+  the same quality does (within 10 %); camera_node on its test pattern (CI has no video
+  device) in MJPEG publishes each frame's JPEG as it came on image_raw/compressed and the
+  image_raw of the same stamp within 2 grey levels of OpenCV's imdecode of that JPEG,
+  with a camera_info of the same stamp; calibrate_node, fed a synthesized stereo session (`stereocal synth`) from
   rclpy, calibrates on `~/calibrate` within 0.2 px (fx, fy, cx, cy), 0.1 degree and 1 mm
   (right_from_left) of the session's ground truth, and `~/commit` writes camera_info
   YAML that PyYAML reads back with the same numbers, while rclpy's set_camera_info
@@ -38,7 +41,8 @@ nodes around it would see:
   parameters with a fixed set in `additional_constraints`), a set that takes effect, a
   set out of range or of a read-only parameter refused with a reason and changing
   nothing (pose_node, whose parameters are all read-only, also refuses to start with an
-  out-of-range value), an atomic set with one bad value changing nothing,
+  out-of-range value), camera_node's V4L2 control `brightness` described with the
+  device's range, refused out of range and brightening image_raw when set, an atomic set with one bad value changing nothing,
   `/parameter_events` naming the node and the new value after a set, and every
   parameter described in one call (a reply larger than one datagram);
 - services: calibrate_node's `~/calibrate` (refused with the reason before enough
@@ -48,6 +52,10 @@ nodes around it would see:
   any frame, a sample taken on every frame, `~/compute` equal (1e-9) to `stereocal
   handeye --json` on the same bag and within three predicted standard deviations of
   the truth, `~/save` writing the YAML PyYAML reads and report.html, `~/reset`;
+  camera_node's `set_camera_info` writing the YAML PyYAML reads before it answers and
+  the next camera_info carrying it, and, on a device that does not exist, `~/status`
+  and /rosout saying why while it keeps trying, and `set_camera_info` to an unwritable
+  camera_info_url refused with the reason;
 - block matching: disparity_node with `stereo_algorithm: 0` publishes the disparity of
   every rendered pair equal to `stereocal depth --algorithm bm`'s;
 - the whole stereo pipeline: both rectify nodes, disparity_node and point_cloud_node in
@@ -70,10 +78,13 @@ as one burst of datagrams, overflow it, and a best-effort subscriber gets none o
 (`--fastdds-socket-buffer 0` shows it).
 
 Usage (after `cargo build --bin rectify_node --bin calibrate_node --bin pose_node
---bin handeye_node --bin stereocal`):
+--bin handeye_node --bin disparity_node --bin point_cloud_node --bin camera_node
+--bin stereocal`):
     .venv/bin/python interop/check_nodes_rclpy.py [--rectify-node PATH]
-        [--calibrate-node PATH] [--pose-node PATH] [--handeye-node PATH] [--stereocal PATH]
-        [--only rectify|calibrate|pose|handeye|disparity|point_cloud|pipeline]
+        [--calibrate-node PATH] [--pose-node PATH] [--handeye-node PATH]
+        [--disparity-node PATH] [--point-cloud-node PATH] [--camera-node PATH]
+        [--stereocal PATH]
+        [--only rectify|calibrate|pose|handeye|disparity|point_cloud|pipeline|camera]
         [--fastdds-socket-buffer BYTES]
 """
 
@@ -83,6 +94,7 @@ import copy
 import json
 import subprocess
 import tempfile
+import time
 from pathlib import Path
 
 import cv2
@@ -1666,6 +1678,241 @@ def check_disparity_bm(checks, peer, rosout, binary, stereocal):
 
 
 # ---------------------------------------------------------------------------------------
+# camera_node
+
+CAMERA_NS = "/cam"
+
+
+class Camera:
+    """camera_node in /cam on its test pattern (CI has no video device), MJPEG decoded
+    and passed through, and rclpy around it: a default reliable and a best-effort
+    subscriber of image_raw, subscribers of image_raw/compressed, camera_info and
+    ~/status, a set_camera_info client."""
+    label, name, namespace = "camera_node", "camera_node", CAMERA_NS
+    fqn = f"{CAMERA_NS}/camera_node"
+
+    def __init__(self, peer, binary, tmp):
+        self.peer = peer
+        self.url_dir = Path(tmp)
+        self.reliable = peer.subscribe(Image, f"{CAMERA_NS}/image_raw", RELIABLE, keep=30)
+        self.sensor = peer.subscribe(Image, f"{CAMERA_NS}/image_raw", qos_profile_sensor_data,
+                                     keep=30)
+        self.compressed = peer.subscribe(CompressedImage, f"{CAMERA_NS}/image_raw/compressed",
+                                         RELIABLE, keep=30)
+        self.infos = peer.subscribe(CameraInfo, f"{CAMERA_NS}/camera_info", RELIABLE, keep=30)
+        self.set_camera_info = peer.node.create_client(SetCameraInfo,
+                                                       f"{CAMERA_NS}/set_camera_info")
+        self.documented = {
+            "use_sim_time": False, "video_device": "test_pattern", "pixel_format": "MJPEG",
+            "image_width": 320, "image_height": 240, "framerate": 10.0,
+            "frame_id": "cam_optical", "camera_name": "left",
+            "camera_info_url": f"file://{tmp}/${{NAME}}.yaml", "output_encoding": "rgb8",
+            "mjpeg_output": "both", "stereo_partner": "",
+            "brightness": 0, "horizontal_flip": False,
+        }
+        self.command = [binary, "--ros-args", "-r", f"__ns:={CAMERA_NS}"]
+        for name, value in self.documented.items():
+            if name not in ("use_sim_time", "brightness", "horizontal_flip") and value != "":
+                self.command += ["-p", f"{name}:={value}"]
+        self.process = NodeProcess(self.command, peer.domain)
+        peer.watch(self.process)
+        self.params = Parameters(peer, self.fqn)
+
+    def frame_after(self, stamp):
+        """The first (image_raw, image_raw/compressed) of equal stamps after `stamp`."""
+        jpegs = {stamp_of(m): m for m in self.compressed.messages}
+        return next(((m, jpegs[stamp_of(m)]) for m in self.reliable.messages
+                     if stamp_of(m) > stamp and stamp_of(m) in jpegs), None)
+
+
+def rgb_of(msg):
+    return np.frombuffer(bytes(msg.data), dtype=np.uint8).reshape(msg.height, msg.width, 3)
+
+
+def check_camera(checks, peer, rosout, binary):
+    with tempfile.TemporaryDirectory() as tmp:
+        c = Camera(peer, binary, tmp)
+        try:
+            camera_checks(checks, peer, rosout, c)
+        finally:
+            stop_and_check(checks, peer, c.process, c.label, c.name, c.namespace)
+        check_missing_camera(checks, peer, rosout, binary, tmp)
+
+
+def camera_checks(checks, peer, rosout, c):
+    label, fqn = c.label, c.fqn
+    if not discovered(checks, peer, label, c.name, c.namespace):
+        return checks.skip(label, "the other checks", "the node was not discovered")
+
+    with checks.check(label, "graph: topics, services and their types"):
+        graph_check(peer, c.name, c.namespace, {
+            "publishers": {f"{CAMERA_NS}/image_raw": ["sensor_msgs/msg/Image"],
+                           f"{CAMERA_NS}/image_raw/compressed":
+                               ["sensor_msgs/msg/CompressedImage"],
+                           f"{CAMERA_NS}/camera_info": ["sensor_msgs/msg/CameraInfo"],
+                           f"{fqn}/status": ["std_msgs/msg/String"],
+                           "/rosout": ["rcl_interfaces/msg/Log"],
+                           "/parameter_events": ["rcl_interfaces/msg/ParameterEvent"]},
+            "subscribers": {},
+            "services": {**parameter_services(fqn),
+                         f"{CAMERA_NS}/set_camera_info": ["sensor_msgs/srv/SetCameraInfo"]},
+            "clients": {},
+        })
+
+    with checks.check(label, "QoS: reliable and best-effort subscribers get image_raw; "
+                             "camera_info of each frame's stamp; stamps increasing, near "
+                             "the wall clock") as note:
+        peer.wait_until(lambda: c.reliable.count >= 5 and c.sensor.count >= 5,
+                        "5 images on each subscriber")
+        images = list(c.reliable.messages)
+        stamps = [stamp_of(m) for m in images]
+        require(stamps == sorted(stamps) and len(set(stamps)) == len(stamps),
+                f"stamps not increasing: {stamps}")
+        last = images[-1]
+        require((last.encoding, last.width, last.height, last.step, last.header.frame_id)
+                == ("rgb8", 320, 240, 960, "cam_optical"),
+                f"image_raw {last.encoding} {last.width}x{last.height} step {last.step} "
+                f"frame {last.header.frame_id!r}")
+        age = time.time() - (last.header.stamp.sec + last.header.stamp.nanosec * 1e-9)
+        require(0.0 <= age < TIMEOUT_S, f"the last image's stamp is {age:.3f} s old")
+        info = peer.wait_until(lambda: next((m for m in c.infos.messages
+                                             if stamp_of(m) == stamps[-1]), None),
+                               "the camera_info of the last image's stamp")
+        require((info.width, info.height) == (320, 240) and not any(info.k),
+                f"uncalibrated camera_info {info.width}x{info.height} K {list(info.k)}")
+        note(f"{c.reliable.count} (reliable), {c.sensor.count} (best-effort); "
+             f"last stamp {age * 1e3:.0f} ms before reception")
+
+    with checks.check(label, "MJPEG: image_raw/compressed is the device's JPEG, and "
+                             "image_raw of the same stamp equals OpenCV's imdecode of it") \
+            as note:
+        image, jpeg = peer.wait_until(lambda: c.frame_after((0, 0)),
+                                      "image_raw and image_raw/compressed of one stamp")
+        require(jpeg.format == "rgb8; jpeg compressed bgr8", f"format {jpeg.format!r}")
+        data = bytes(jpeg.data)
+        require(data[:2] == b"\xff\xd8", "not a JPEG")
+        decoded = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
+        opencv = cv2.cvtColor(decoded, cv2.COLOR_BGR2RGB).astype(int)
+        diff = np.abs(rgb_of(image).astype(int) - opencv)
+        require(diff.max() <= 2,
+                f"|image_raw - OpenCV imdecode| mean {diff.mean():.3f}, max {diff.max()}")
+        note(f"{len(data)} B JPEG; |image_raw - imdecode| mean {diff.mean():.3f}, "
+             f"max {diff.max()}")
+
+    common_parameter_checks(
+        checks, label, c.params, c.documented,
+        read_only=[n for n in c.documented if n not in ("brightness", "horizontal_flip")],
+        constraints={"pixel_format": ["YUYV", "MJPEG", "GREY"],
+                     "output_encoding": ["rgb8", "mono8"],
+                     "mjpeg_output": ["raw", "compressed", "both"]},
+        refuse=["image_width", "image_height"])
+
+    with checks.check(label, "parameters: the V4L2 control brightness described with the "
+                             "device's range, 100 (out of range) refused") as note:
+        [descriptor] = c.params.describe(["brightness"])
+        [described] = descriptor.integer_range
+        require((described.from_value, described.to_value) == (-64, 64) and not
+                descriptor.read_only, f"brightness {described}, read_only "
+                f"{descriptor.read_only}")
+        [result] = c.params.set({"brightness": 100})
+        require(not result.successful and "out of range" in result.reason,
+                f"set brightness=100: successful={result.successful}, {result.reason!r}")
+        [now] = c.params.get(["brightness"])
+        require(now == 0, f"brightness is {now} after a refused set")
+        note(result.reason)
+
+    with checks.check(label, "parameters: brightness 40 set while running brightens "
+                             "image_raw") as note:
+        def mean_after(stamp):
+            frame = c.frame_after(stamp)
+            return frame and (stamp_of(frame[0]), rgb_of(frame[0]).mean())
+        before_stamp, before = peer.wait_until(lambda: mean_after((0, 0)), "a frame")
+        [result] = c.params.set({"brightness": 40})
+        require(result.successful, f"set brightness=40 refused: {result.reason!r}")
+        _, after = peer.wait_until(
+            lambda: (m := mean_after(before_stamp)) and m[1] > before + 20 and m,
+            lambda: f"a frame brighter than {before:.1f} by 20")
+        note(f"mean grey level {before:.1f} -> {after:.1f}")
+
+    with checks.check(label, "set_camera_info: the file written before the answer, the "
+                             "next camera_info carries it") as note:
+        k = [300.0, 0.0, 159.5, 0.0, 301.0, 119.5, 0.0, 0.0, 1.0]
+        request = SetCameraInfo.Request(camera_info=CameraInfo(
+            width=320, height=240, distortion_model="plumb_bob",
+            d=[-0.1, 0.02, 0.0, 0.0, 0.0], k=k, r=[1.0, 0, 0, 0, 1.0, 0, 0, 0, 1.0],
+            p=[300.0, 0.0, 159.5, 0.0, 0.0, 301.0, 119.5, 0.0, 0.0, 0.0, 1.0, 0.0]))
+        response = peer.call(c.set_camera_info, request)
+        path = c.url_dir / "left.yaml"
+        require(response.success, f"refused: {response.status_message!r}")
+        written = yaml.safe_load(path.read_text())
+        require(written["camera_name"] == "left" and written["camera_matrix"]["data"] == k
+                and (written["image_width"], written["image_height"]) == (320, 240),
+                f"{path}: {written}")
+        peer.wait_until(lambda: any(list(m.k) == k for m in c.infos.messages),
+                        "a camera_info with the new K")
+        note(response.status_message)
+
+    with checks.check(label, "~/status (transient local) to a late subscriber: streaming, "
+                             "frames counted") as note:
+        status = peer.subscribe(String, f"{fqn}/status", STATUS_QOS)
+        last = peer.wait_until(
+            lambda: status.last and json.loads(status.last.data)["camera_info"]["calibrated"]
+            and json.loads(status.last.data),
+            "a status saying the camera is calibrated")
+        require(last["state"]["state"] == "streaming" and last["frames"]["captured"] > 0
+                and last["frames"]["bad_frames"] == 0, f"status {last}")
+        note(f"{last['state']['mode']}, {last['frames']['captured']} captured, "
+             f"{last['published']} published")
+
+    with checks.check(label, "/rosout: records of logger cam.camera_node"):
+        peer.wait_until(lambda: any(m.name == "cam.camera_node" and "capturing" in m.msg
+                                    for m in rosout.messages),
+                        "a /rosout record of cam.camera_node saying what it captures")
+
+    describe_all_check(checks, label, c.params)
+
+
+def check_missing_camera(checks, peer, rosout, binary, tmp):
+    """camera_node on a device that does not exist and a camera_info_url under a file:
+    it keeps running, says why, and refuses set_camera_info with the reason."""
+    label = "camera_node (missing device)"
+    blocked = Path(tmp) / "blocked"
+    blocked.write_text("a file, not a directory")
+    command = [binary, "--ros-args", "-r", f"__ns:={CAMERA_NS}", "-p",
+               "video_device:=/dev/stereocal-no-such-camera", "-p",
+               f"camera_info_url:=file://{blocked}/${{NAME}}.yaml"]
+    process = NodeProcess(command, peer.domain)
+    peer.watch(process)
+    try:
+        with checks.check(label, "~/status and /rosout say why; the node keeps trying") as note:
+            status = peer.subscribe(String, f"{CAMERA_NS}/camera_node/status", STATUS_QOS)
+            last = peer.wait_until(
+                lambda: status.last and (s := json.loads(status.last.data))["state"]["state"]
+                == "waiting" and s["state"]["retry_in_s"] >= 1.0 and s,
+                "a status waiting after a second attempt")
+            require("cannot open /dev/stereocal-no-such-camera" in last["state"]["reason"],
+                    f"reason {last['state']['reason']!r}")
+            record = peer.wait_until(
+                lambda: next((m for m in rosout.messages if m.name == "cam.camera_node"
+                              and "trying again" in m.msg), None),
+                "a /rosout record saying it tries again")
+            require(record.level == Log.ERROR, f"level {record.level}: {record.msg}")
+            note(last["state"]["reason"])
+        with checks.check(label, "set_camera_info to an unwritable camera_info_url refused "
+                                 "with the reason") as note:
+            client = peer.node.create_client(SetCameraInfo, f"{CAMERA_NS}/set_camera_info")
+            response = peer.call(client, SetCameraInfo.Request(camera_info=CameraInfo(
+                width=640, height=480, distortion_model="plumb_bob", d=[0.0] * 5,
+                k=[500.0, 0, 319.5, 0, 500.0, 239.5, 0, 0, 1.0])))
+            require(not response.success and "calibration not stored" in response.status_message
+                    and f"{blocked}/camera.yaml" in response.status_message,
+                    f"success={response.success}: {response.status_message!r}")
+            note(response.status_message)
+    finally:
+        stop_and_check(checks, peer, process, label, "camera_node", CAMERA_NS)
+
+
+# ---------------------------------------------------------------------------------------
 # point_cloud_node
 
 POINTS2 = "/stereo/points2"
@@ -1884,18 +2131,22 @@ def main():
                         default=str(ROOT / "target" / "debug" / "disparity_node"))
     parser.add_argument("--point-cloud-node",
                         default=str(ROOT / "target" / "debug" / "point_cloud_node"))
+    parser.add_argument("--camera-node",
+                        default=str(ROOT / "target" / "debug" / "camera_node"))
     parser.add_argument("--stereocal", default=str(ROOT / "target" / "debug" / "stereocal"))
     parser.add_argument("--only", choices=("rectify", "calibrate", "pose", "handeye", "disparity",
-                                           "point_cloud", "pipeline"))
+                                           "point_cloud", "pipeline", "camera"))
     parser.add_argument("--fastdds-socket-buffer", type=int, default=8 * 1024 * 1024,
                         help="bytes of Fast DDS's UDP socket buffers; 0 keeps its default")
     args = parser.parse_args()
     for binary in (args.rectify_node, args.calibrate_node, args.pose_node, args.handeye_node,
-                   args.disparity_node, args.point_cloud_node, args.stereocal):
+                   args.disparity_node, args.point_cloud_node, args.camera_node,
+                   args.stereocal):
         if not Path(binary).exists():
             raise SystemExit(f"{binary} not found; build it with `cargo build --bin rectify_node "
                              "--bin calibrate_node --bin pose_node --bin handeye_node "
-                             "--bin disparity_node --bin point_cloud_node --bin stereocal`")
+                             "--bin disparity_node --bin point_cloud_node --bin camera_node "
+                             "--bin stereocal`")
 
     def run(checks):
         lease = DomainLease()
@@ -1920,6 +2171,8 @@ def main():
                                   args.point_cloud_node, args.stereocal)
             if args.only in (None, "pipeline"):
                 check_pipeline(checks, peer, rosout, args.stereocal)
+            if args.only in (None, "camera"):
+                check_camera(checks, peer, rosout, args.camera_node)
         finally:
             peer.close()
             lease.release()

@@ -8,7 +8,8 @@
 //!
 //! ```yaml
 //! nodes:
-//!   - node: rectify          # which node: rectify, calibrate or pose
+//!   - node: rectify          # which node: rectify, calibrate, pose, handeye, disparity,
+//!                            # point_cloud or camera
 //!     args: [-r, __ns:=/stereo/left, -r, image:=image_raw]   # its ROS arguments
 //!   - node: rectify
 //!     args: [-r, __ns:=/stereo/right, -r, image:=image_raw]
@@ -31,7 +32,7 @@ use stereocal_runtime::shutdown::Shutdown;
 type NodeMain = fn(Vec<String>) -> anyhow::Result<()>;
 
 /// The nodes a composition can hold, by the name the file gives them.
-const NODES: [(&str, NodeMain); 6] = [
+const NODES: [(&str, NodeMain); 7] = [
     ("rectify", |args| crate::rectify::node::run(args)),
     ("calibrate", |args| crate::calibrate::node::run(args)),
     ("pose", |args| crate::pose::node::run(args)),
@@ -40,6 +41,7 @@ const NODES: [(&str, NodeMain); 6] = [
     ("point_cloud", |args| {
         crate::depth::point_cloud_node::run(args)
     }),
+    ("camera", |args| crate::camera::node::run(args)),
 ];
 
 /// The logger name of the composition itself.
@@ -52,7 +54,8 @@ const WATCH_PERIOD: Duration = Duration::from_millis(50);
 #[derive(Clone, Debug, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct ComposedNode {
-    /// Which node (`rectify`, `calibrate`, `pose`, `handeye`, `disparity`, `point_cloud`).
+    /// Which node (`rectify`, `calibrate`, `pose`, `handeye`, `disparity`, `point_cloud`,
+    /// `camera`).
     pub node: String,
     /// Its ROS arguments (remaps, parameters), as after `--ros-args`.
     #[serde(default)]

@@ -1,6 +1,6 @@
 //! stereocal's nodes, offline commands and the pipeline stages they share, one module
 //! per capability: [`rectify`] and [`calibrate`] (each with its node, stage and what
-//! serves them), [`pose`] and [`handeye`], [`convert`] between ROS messages and vision
+//! serves them), [`pose`] and [`handeye`], [`camera`] (the V4L2 camera driver), [`convert`] between ROS messages and vision
 //! types, [`tf_buffer`] for transforms at a stamp, [`composition`] running several
 //! nodes in one process, [`cli`] with one module per `stereocal` command, and [`tools`]
 //! shared by the measuring binaries.
@@ -9,6 +9,7 @@
 //! geometry and images the `stereocal-vision` crate.
 
 pub mod calibrate;
+pub mod camera;
 pub mod cli;
 pub mod composition;
 pub mod convert;

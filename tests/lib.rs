@@ -9,6 +9,7 @@
 
 mod bundled_bags;
 mod calibrate;
+mod camera;
 mod common;
 mod composition;
 mod compressed;

@@ -51,6 +51,13 @@ pub enum NodeCommand {
         #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
         args: Vec<String>,
     },
+    /// The camera node: a V4L2 camera (or its test pattern) to `image_raw`,
+    /// `image_raw/compressed` and `camera_info`, with `set_camera_info`.
+    Camera {
+        /// ROS arguments, as for the `camera_node` executable.
+        #[arg(trailing_var_arg = true, allow_hyphen_values = true)]
+        args: Vec<String>,
+    },
     /// Several nodes in this process, as a composition file lists them, like a
     /// component container.
     Compose {
@@ -71,6 +78,7 @@ pub fn run(command: NodeCommand) -> anyhow::Result<()> {
         NodeCommand::Handeye { args } => crate::handeye::node::run(args),
         NodeCommand::Disparity { args } => crate::depth::node::run(args),
         NodeCommand::PointCloud { args } => crate::depth::point_cloud_node::run(args),
+        NodeCommand::Camera { args } => crate::camera::node::run(args),
         NodeCommand::Compose { file, args } => crate::composition::run(&file, &args),
     }
 }

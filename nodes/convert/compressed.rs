@@ -237,7 +237,9 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
         .set_max_width(MAX_SIDE)
         .set_max_height(MAX_SIDE)
         .set_strict_mode(true);
-    let mut decoder = JpegDecoder::new_with_options(ZCursor::new(data), options);
+    // An MJPEG frame without Huffman tables decodes with the standard ones.
+    let data = super::mjpeg::with_standard_tables_marked(data);
+    let mut decoder = JpegDecoder::new_with_options(ZCursor::new(&*data), options);
     decoder
         .decode_headers()
         .map_err(|e| corrupt(Codec::Jpeg)(e.to_string()))?;

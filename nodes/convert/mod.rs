@@ -10,6 +10,7 @@ mod camera_info;
 mod compress;
 mod compressed;
 mod image;
+mod mjpeg;
 mod pose;
 
 pub use camera_info::{
