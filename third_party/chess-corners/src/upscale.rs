@@ -232,10 +232,11 @@ fn upscale2_u8(src: &[u8], src_w: usize, src_h: usize, dst: &mut [u8]) {
         // i and i + 1 3:1 (clamped at the ends).
         let last = src_w - 1;
         out[0] = ((4 * blend[0] + 8) >> 4) as u8;
-        for i in 1..src_w {
-            let (l, r) = (blend[i - 1], blend[i]);
-            out[2 * i - 1] = ((3 * l + r + 8) >> 4) as u8;
-            out[2 * i] = ((l + 3 * r + 8) >> 4) as u8;
+        let pairs = out[1..2 * last + 1].chunks_exact_mut(2);
+        for (pair, lr) in pairs.zip(blend.windows(2)) {
+            let (l, r) = (lr[0], lr[1]);
+            pair[0] = ((3 * l + r + 8) >> 4) as u8;
+            pair[1] = ((l + 3 * r + 8) >> 4) as u8;
         }
         out[2 * last + 1] = ((4 * blend[last] + 8) >> 4) as u8;
     }

@@ -141,31 +141,94 @@ pub fn detect_peaks_from_response_with_refine_radius(
     }
 
     let mut corners = Vec::new();
+    let scan = AboveScan::detect();
 
     for y in border..(h - border) {
-        for x in border..(w - border) {
-            let v = resp.at(x, y);
-            if v <= thr {
-                continue;
-            }
-
+        let row = &resp.data()[y * w..(y + 1) * w];
+        scan.for_each(row, border, w - border, thr, |x, v| {
             // Local maximum in NMS window
             if !is_local_max(resp.data(), resp.w, resp.h, x, y, nms_r, v) {
-                continue;
+                return;
             }
 
             // Reject isolated pixels: require a minimum number of positive
             // neighbors in the same NMS window.
             let cluster_size = count_positive_neighbors(resp.data(), resp.w, resp.h, x, y, nms_r);
             if cluster_size < params.min_cluster_size {
-                continue;
+                return;
             }
 
             corners.push(Corner::new(x as f32, y as f32, v));
-        }
+        });
     }
 
     corners
+}
+
+/// The scan of a response row for the pixels above the floor, chosen once
+/// per response map from what the CPU supports. Both ways visit the same
+/// pixels in the same (ascending) order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum AboveScan {
+    /// One pixel at a time.
+    Scalar,
+    /// Eight pixels a step with AVX2, skipping steps with none above.
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+impl AboveScan {
+    /// The fastest scan this CPU runs.
+    fn detect() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        if std::is_x86_feature_detected!("avx2") {
+            return Self::Avx2;
+        }
+        Self::Scalar
+    }
+
+    /// Call `f(x, row[x])` for every `x` in `x0..x1`, in ascending order,
+    /// where `row[x] <= thr` is false (so NaN included, as the scalar
+    /// comparison would).
+    #[inline]
+    fn for_each(self, row: &[f32], x0: usize, x1: usize, thr: f32, mut f: impl FnMut(usize, f32)) {
+        let mut x = x0;
+        #[cfg(target_arch = "x86_64")]
+        if self == Self::Avx2 {
+            while x + 8 <= x1 {
+                // SAFETY: `Avx2` is only chosen when the CPU has AVX2.
+                let mut mask = unsafe { avx2_not_le_mask(&row[x..x + 8], thr) };
+                while mask != 0 {
+                    let k = mask.trailing_zeros() as usize;
+                    f(x + k, row[x + k]);
+                    mask &= mask - 1;
+                }
+                x += 8;
+            }
+        }
+        for (x, &v) in row.iter().enumerate().take(x1).skip(x) {
+            if v <= thr {
+                continue;
+            }
+            f(x, v);
+        }
+    }
+}
+
+/// Bit `k` set where `!(lanes[k] <= thr)`, for the eight `lanes`.
+///
+/// # Safety
+///
+/// The CPU must support AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn avx2_not_le_mask(lanes: &[f32], thr: f32) -> u32 {
+    use core::arch::x86_64::*;
+    let lanes = &lanes[..8];
+    // SAFETY: `lanes` holds the eight `f32` read (unaligned load).
+    let v = unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
+    let above = _mm256_cmp_ps::<_CMP_NLE_UQ>(v, _mm256_set1_ps(thr));
+    _mm256_movemask_ps(above) as u32
 }
 
 /// Stage 2 of detection: subpixel localization of the peaks with
@@ -268,6 +331,47 @@ pub fn refine_corners_on_image_with_fallback(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The AVX2 scan of a response row visits the scalar scan's pixels in
+    /// the same order: rows with negative, zero, positive and NaN values,
+    /// ranges on and off the eight-pixel grid, several floors.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx2_scan_visits_the_scalar_scans_pixels() {
+        if !std::is_x86_feature_detected!("avx2") {
+            eprintln!("skipped: this CPU has no AVX2");
+            return;
+        }
+        let mut state = 0x2545_F491_4F6C_DD1Du64;
+        let row: Vec<f32> = (0..203)
+            .map(|k| {
+                state ^= state >> 12;
+                state ^= state << 25;
+                state ^= state >> 27;
+                match (state >> 60, k % 7) {
+                    (0, _) => f32::NAN,
+                    (1, _) => 0.0,
+                    (2, _) => -0.0,
+                    (_, 3) => 25.0,
+                    _ => ((state >> 40) as i32 % 200) as f32 - 150.0,
+                }
+            })
+            .collect();
+        let visits = |scan: AboveScan, x0, x1, thr| {
+            let mut seen = Vec::new();
+            scan.for_each(&row, x0, x1, thr, |x, v| seen.push((x, v.to_bits())));
+            seen
+        };
+        for thr in [0.0f32, 25.0, -10.0, 1e9] {
+            for (x0, x1) in [(0, 203), (3, 200), (7, 8), (5, 5), (16, 64), (1, 202)] {
+                assert_eq!(
+                    visits(AboveScan::Avx2, x0, x1, thr),
+                    visits(AboveScan::Scalar, x0, x1, thr),
+                    "thr {thr} {x0}..{x1}"
+                );
+            }
+        }
+    }
     use crate::refine::{CenterOfMassConfig, CenterOfMassRefiner, RefineContext, RefineStatus};
     use image::{GrayImage, Luma};
 
