@@ -195,16 +195,8 @@ impl AboveScan {
         let mut x = x0;
         #[cfg(target_arch = "x86_64")]
         if self == Self::Avx2 {
-            while x + 8 <= x1 {
-                // SAFETY: `Avx2` is only chosen when the CPU has AVX2.
-                let mut mask = unsafe { avx2_not_le_mask(&row[x..x + 8], thr) };
-                while mask != 0 {
-                    let k = mask.trailing_zeros() as usize;
-                    f(x + k, row[x + k]);
-                    mask &= mask - 1;
-                }
-                x += 8;
-            }
+            // SAFETY: `Avx2` is only chosen when the CPU has AVX2.
+            x = unsafe { avx2_for_each_above(row, x0, x1, thr, &mut f) };
         }
         for (x, &v) in row.iter().enumerate().take(x1).skip(x) {
             if v <= thr {
@@ -215,20 +207,39 @@ impl AboveScan {
     }
 }
 
-/// Bit `k` set where `!(lanes[k] <= thr)`, for the eight `lanes`.
+/// [`AboveScan::for_each`] over the whole steps of eight pixels in
+/// `x0..x1`: compares eight values at once (`!(v <= thr)`) and calls `f` on
+/// those above, in ascending order. Returns where the steps ended, for the
+/// scalar scan to finish the row.
 ///
 /// # Safety
 ///
 /// The CPU must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn avx2_not_le_mask(lanes: &[f32], thr: f32) -> u32 {
+unsafe fn avx2_for_each_above(
+    row: &[f32],
+    x0: usize,
+    x1: usize,
+    thr: f32,
+    f: &mut impl FnMut(usize, f32),
+) -> usize {
     use core::arch::x86_64::*;
-    let lanes = &lanes[..8];
-    // SAFETY: `lanes` holds the eight `f32` read (unaligned load).
-    let v = unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
-    let above = _mm256_cmp_ps::<_CMP_NLE_UQ>(v, _mm256_set1_ps(thr));
-    _mm256_movemask_ps(above) as u32
+    let floor = _mm256_set1_ps(thr);
+    let mut x = x0;
+    while x + 8 <= x1 {
+        let lanes = &row[x..x + 8];
+        // SAFETY: `lanes` holds the eight `f32` read (unaligned load).
+        let v = unsafe { _mm256_loadu_ps(lanes.as_ptr()) };
+        let mut mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_NLE_UQ>(v, floor)) as u32;
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            f(x + k, lanes[k]);
+            mask &= mask - 1;
+        }
+        x += 8;
+    }
+    x
 }
 
 /// Stage 2 of detection: subpixel localization of the peaks with
