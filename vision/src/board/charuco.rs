@@ -100,7 +100,9 @@ impl CharucoDetector {
     /// The board's corners found in `gray`, by ascending id: of the corner passes and
     /// the sweep's configurations, the result that aligned the most markers (then
     /// corners), completed by the others that agree with it; the upscaled pass runs
-    /// only when the first misses corners.
+    /// only when the first misses corners, and the sweep of a pass stops at the first
+    /// configuration that gives every corner (the others would find the same corners
+    /// at the same positions, and nothing to add).
     fn find_corners(&self, gray: &Gray) -> Option<(Vec<usize>, Vec<Point2<f64>>)> {
         contained(|| self.search_corners(gray))
     }
@@ -134,7 +136,11 @@ impl CharucoDetector {
                     .collect();
                 corners.sort_by_key(|(id, _)| *id);
                 corners.dedup_by_key(|(id, _)| *id);
+                let whole = corners.len() == count;
                 results.push(((found.markers.len(), corners.len()), pass_index, corners));
+                if whole {
+                    break;
+                }
             }
         }
         // The best result, completed with the corners of the others that agree with it
