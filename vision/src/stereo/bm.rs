@@ -94,7 +94,23 @@ pub struct BlockMatcher {
     params: BmParams,
     left: Vec<u8>,
     right: Vec<u8>,
+    bands: Vec<BandBuffers>,
     speckles: SpeckleFilter,
+}
+
+/// What one band of rows works in, kept from pair to pair.
+#[derive(Default)]
+pub(crate) struct BandBuffers {
+    /// Per column, the window's column sums of absolute differences per disparity.
+    sad: Vec<u16>,
+    /// Per column, the window's column sum of derivative magnitudes.
+    texture: Vec<u32>,
+    /// The window's sums per disparity at the current pixel.
+    window: Vec<u32>,
+    /// Per right column, its least cost and disparity index (left-right check).
+    right_best: Vec<u64>,
+    /// Per left column of the current row, the chosen disparity index and offset.
+    chosen: Vec<Option<(usize, f32)>>,
 }
 
 /// What every band of one pair reads.
@@ -113,6 +129,7 @@ impl BlockMatcher {
             params,
             left: Vec::new(),
             right: Vec::new(),
+            bands: Vec::new(),
             speckles: SpeckleFilter::default(),
         }
     }
@@ -165,10 +182,15 @@ impl BlockMatcher {
         let band_rows = height
             .div_ceil(2 * rayon::current_num_threads())
             .max(MIN_BAND_ROWS);
+        self.bands
+            .resize_with(height.div_ceil(band_rows), BandBuffers::default);
         out.data
             .par_chunks_mut(width * band_rows)
+            .zip(self.bands.par_iter_mut())
             .enumerate()
-            .for_each(|(band, rows)| match_band(&pair, band * band_rows, rows));
+            .for_each(|(band, (rows, buffers))| {
+                match_band(&pair, band * band_rows, rows, buffers);
+            });
         self.speckles.apply(
             &mut out.data,
             width,
@@ -216,7 +238,12 @@ fn prefilter_xsobel<T: Copy + Into<i32> + Sync>(
 
 simd::dispatched! {
     /// Matches the rows `first..` of `out` (whole rows of the disparity map).
-    fn match_band(pair: &Pair<'_>, first: usize, out: &mut [f32]) = match_band_kernel;
+    fn match_band(
+        pair: &Pair<'_>,
+        first: usize,
+        out: &mut [f32],
+        buffers: &mut BandBuffers,
+    ) = match_band_kernel;
 }
 
 /// [`match_band`], compiled for the baseline target and for AVX2.
@@ -225,7 +252,7 @@ simd::dispatched! {
 /// a left column's costs read the right row forwards and every loop over disparities
 /// runs over contiguous memory.
 #[inline(always)]
-fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32]) {
+fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32], buffers: &mut BandBuffers) {
     let Pair {
         left,
         right,
@@ -246,7 +273,11 @@ fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32]) {
     }
     let (x_lo, x_hi) = (column_lo + half, column_hi - half);
     let rows = out.len() / width;
-    let (y_lo, y_hi) = (first.max(half), (first + rows).min(height - half));
+    // An image lower than the window has no pixel to match.
+    let (y_lo, y_hi) = (
+        first.max(half),
+        (first + rows).min(height.saturating_sub(half)),
+    );
     if y_lo >= y_hi {
         return;
     }
@@ -254,8 +285,15 @@ fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32]) {
     let columns = column_hi - column_lo + 1;
     // Per column: the sum over the window's rows of |left - right| per disparity (at
     // most 255 * 126, a u16), and of the left's derivative magnitude (texture).
-    let mut sad = vec![0u16; columns * range];
-    let mut texture = vec![0u32; columns];
+    let BandBuffers {
+        sad,
+        texture,
+        window,
+        right_best,
+        chosen,
+    } = buffers;
+    refill(sad, columns * range, 0);
+    refill(texture, columns, 0);
     // Right column of cost j at left column x: x - max_d + j.
     let first_right = |x: usize| (x as isize - max_d) as usize;
     fn row(image: &[u8], width: usize, y: usize) -> &[u8] {
@@ -274,10 +312,10 @@ fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32]) {
             }
         }
     }
-    let mut window = vec![0u32; range];
+    refill(window, range, 0);
     // Per right column: its least cost (high half) and the j of it (low half).
-    let mut right_best = vec![u64::MAX; width];
-    let mut chosen = vec![None::<(usize, f32)>; width];
+    refill(right_best, width, u64::MAX);
+    refill(chosen, width, None);
     for y in y_lo..y_hi {
         if y > y_lo {
             let (l_in, r_in) = (row_of(left, y + half), row_of(right, y + half));
@@ -302,7 +340,11 @@ fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32]) {
         // The window sum at x_lo, then slid one column at a time.
         window.fill(0);
         let mut window_texture = 0u32;
-        for (column, &tex) in sad.chunks_exact(range).zip(&texture).take(params.window) {
+        for (column, &tex) in sad
+            .chunks_exact(range)
+            .zip(texture.iter())
+            .take(params.window)
+        {
             for (w, &s) in window.iter_mut().zip(column) {
                 *w += u32::from(s);
             }
@@ -352,6 +394,13 @@ fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32]) {
 
 /// The disparity index of the least cost and its sub-pixel offset, unless a
 /// disparity more than one index away costs at most `uniqueness_ratio` percent more.
+/// Makes `buffer` `len` copies of `value`, keeping its allocation.
+#[inline(always)]
+fn refill<T: Clone>(buffer: &mut Vec<T>, len: usize, value: T) {
+    buffer.clear();
+    buffer.resize(len, value);
+}
+
 /// `|a - b|` in bytes (larger minus smaller), which vectorizes as byte operations.
 #[inline(always)]
 fn distance(a: u8, b: u8) -> u8 {
@@ -452,6 +501,18 @@ mod tests {
         );
         // The first columns have matches outside the right image.
         assert!(map.at(31 + 4 - 1, 30).is_none());
+    }
+
+    #[test]
+    fn an_image_lower_than_the_window_has_no_disparity() {
+        let image = mono(64, 8, texture(64, 8, 2));
+        let mut matcher = BlockMatcher::new(BmParams {
+            disparity_range: 16,
+            window: 21,
+            ..BmParams::default()
+        });
+        let map = matcher.compute(&image, &image).expect("matched");
+        assert!(map.data.iter().all(|d| d.is_nan()));
     }
 
     #[test]
