@@ -372,7 +372,7 @@ fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32], buffers: &m
                 }
             }
             if window_texture >= params.texture_threshold {
-                *slot = choose(&window, params.uniqueness_ratio);
+                *slot = choose(window, params.uniqueness_ratio);
             }
         }
         let row = &mut out[(y - first) * width..(y - first + 1) * width];
