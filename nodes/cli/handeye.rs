@@ -545,7 +545,7 @@ fn find_poses(
         &stage,
         &ProgressBar::hidden(),
         |message| {
-            gather_robot(&mut gathered.borrow_mut(), message);
+            gather_robot(&mut gathered.borrow_mut(), &message);
             Ok(())
         },
         |frame| {

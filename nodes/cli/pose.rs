@@ -273,7 +273,7 @@ pub fn pose_bag(args: &PoseArgs, progress: &ProgressBar) -> anyhow::Result<PoseR
                 progress,
                 |message| {
                     if let Some(&id) = copy_ids.get(&*message.topic) {
-                        let data = Arc::new(message.data.clone());
+                        let data = Arc::new(message.data);
                         out.copy(id, message.log_time_ns, message.publish_time_ns, data)?;
                     }
                     Ok(())
@@ -407,7 +407,8 @@ impl FrameInput {
     }
 
     /// Reads `messages`, the whole of `reader`'s bag in log-time order, once: hands
-    /// every message to `copy` as it is read, pairs each image with the camera_info of
+    /// every message to `copy` once read (and decoded when it is an image or a
+    /// camera_info), pairs each image with the camera_info of
     /// its stamp (or the file's), solves the images with `stage` in parallel batches,
     /// and hands every solved frame to `sink` in bag order. Returns the damage that
     /// ended reading early, if any. `progress` counts images.
@@ -417,7 +418,7 @@ impl FrameInput {
         messages: impl Iterator<Item = Result<BagMessage, BagError>>,
         stage: &PoseStage,
         progress: &ProgressBar,
-        mut copy: impl FnMut(&BagMessage) -> anyhow::Result<()>,
+        mut copy: impl FnMut(BagMessage) -> anyhow::Result<()>,
         mut sink: impl FnMut(SolvedFrame) -> anyhow::Result<()>,
     ) -> anyhow::Result<Option<String>> {
         progress.set_length(reader.topics_message_count([self.topic.as_str()]));
@@ -434,12 +435,12 @@ impl FrameInput {
                     break;
                 }
             };
-            copy(&message)?;
-            if *message.topic == self.topic {
+            let paired = if *message.topic == self.topic {
                 pending.push_back(Pending {
                     log_time_ns: message.log_time_ns,
                     image: self.kind.decode(&message.data),
                 });
+                true
             } else if fixed_info.is_none() && *message.topic == self.info_topic {
                 match cdr::from_bytes::<CameraInfo>(&message.data) {
                     Ok(info) => {
@@ -456,7 +457,12 @@ impl FrameInput {
                         );
                     }),
                 }
+                true
             } else {
+                false
+            };
+            copy(message)?;
+            if !paired {
                 continue;
             }
             pair_ready(&mut pending, &infos, fixed_info, false, &mut batch);
