@@ -20,6 +20,10 @@ pub const TEST_PATTERN_DEVICE: &str = "test_pattern";
 /// Distinct frames of the pattern's motion, rendered once per mode and control change.
 const CYCLE: usize = 30;
 
+/// The largest size the pattern grants, as a device grants the nearest size it has:
+/// the frames of a cycle are kept, so this bounds their memory (124 MB in YUYV).
+const MAX_SIZE: (u32, u32) = (1920, 1080);
+
 /// JPEG quality of the MJPEG frames.
 const JPEG_QUALITY: u8 = 90;
 
@@ -156,8 +160,8 @@ impl CameraDevice for TestPattern {
     fn start(&mut self, mode: &Mode) -> Result<Mode, DeviceError> {
         let granted = Mode {
             // YUYV pairs pixels, as a device would round the width.
-            width: (mode.width & !1).max(2),
-            height: mode.height.max(1),
+            width: (mode.width.min(MAX_SIZE.0) & !1).max(2),
+            height: mode.height.clamp(1, MAX_SIZE.1),
             fps: mode.fps.clamp(1.0, 120.0),
             format: mode.format,
         };

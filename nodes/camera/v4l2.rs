@@ -192,10 +192,9 @@ impl CameraDevice for V4l2Device {
     }
 
     fn next_frame(&mut self, timeout: Duration) -> Result<Option<Frame>, DeviceError> {
-        let path = self.path.clone();
         let Some(stream) = self.stream.as_mut() else {
             return Err(DeviceError::Lost {
-                device: path,
+                device: self.path.clone(),
                 reason: "not streaming".into(),
             });
         };
@@ -217,7 +216,7 @@ impl CameraDevice for V4l2Device {
             Err(e) => {
                 self.stream = None;
                 Err(DeviceError::Lost {
-                    device: path,
+                    device: self.path.clone(),
                     reason: e.to_string(),
                 })
             }
