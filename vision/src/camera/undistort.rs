@@ -174,14 +174,15 @@ impl Distortion {
     /// Damped Newton on `distort(p) = target` from `start`; `None` unless it converges
     /// to a point where the map is locally invertible and orientation-preserving.
     fn refine_pinhole(&self, target: &Vector2<f64>, start: Vector2<f64>) -> Option<Vector2<f64>> {
-        let scale = target.norm().max(1.0);
-        let tolerance = 1e-13 * scale;
+        // Squared lengths throughout: a square root would lengthen every step's chain.
+        let scale_sq = target.norm_squared().max(1.0);
+        let tolerance_sq = 1e-26 * scale_sq;
         let mut p = start;
         let (distorted, mut jacobian) = self.distort_with_point_jacobian(&p);
         let mut residual = distorted - target;
-        let mut residual_norm = residual.norm();
+        let mut residual_sq = residual.norm_squared();
         for _ in 0..100 {
-            if residual_norm <= tolerance {
+            if residual_sq <= tolerance_sq {
                 break;
             }
             let step = jacobian.try_inverse()? * residual;
@@ -191,11 +192,11 @@ impl Distortion {
                 let candidate = p - step * alpha;
                 let (distorted, candidate_jacobian) = self.distort_with_point_jacobian(&candidate);
                 let candidate_residual = distorted - target;
-                let candidate_norm = candidate_residual.norm();
-                if candidate_norm < residual_norm {
+                let candidate_sq = candidate_residual.norm_squared();
+                if candidate_sq < residual_sq {
                     p = candidate;
                     residual = candidate_residual;
-                    residual_norm = candidate_norm;
+                    residual_sq = candidate_sq;
                     jacobian = candidate_jacobian;
                     improved = true;
                     break;
@@ -209,7 +210,7 @@ impl Distortion {
         let within_range = p.norm() < PINHOLE_RADIUS_LIMIT
             && self.radial_profile(p.norm()).1 > 0.0
             && jacobian.determinant() > 0.0;
-        (residual_norm <= 1e-9 * scale && within_range).then_some(p)
+        (residual_sq <= 1e-18 * scale_sq && within_range).then_some(p)
     }
 }
 

@@ -2,6 +2,8 @@
 //! only when it is finite, puts every point in front of the camera, explains the
 //! pixels within the bound asked for and is not one of two equally good poses.
 
+use std::borrow::Cow;
+
 use nalgebra::{Isometry3, Matrix3, Matrix6, Vector3};
 
 use super::epnp::epnp;
@@ -118,10 +120,13 @@ pub fn estimate_pose(
     let (used, inliers) = match &options.outlier_rejection {
         Some(ransac_options) => {
             let found = ransac(camera, correspondences, &P3p, ransac_options)?;
-            (subset(correspondences, &found.inliers), found.inliers)
+            (
+                Cow::Owned(subset(correspondences, &found.inliers)),
+                found.inliers,
+            )
         }
         None => (
-            correspondences.clone(),
+            Cow::Borrowed(correspondences),
             (0..correspondences.len()).collect(),
         ),
     };

@@ -12,6 +12,12 @@ const MAX_ITERATIONS: usize = 100;
 const RELATIVE_TOLERANCE: f64 = 1e-12;
 /// Step (radians and metres) below which refinement has converged.
 const STEP_TOLERANCE: f64 = 1e-12;
+/// The largest ratio of a step's predicted decrease to the last accepted step's at which
+/// convergence counts as fast enough to extrapolate: the step after this one would then
+/// gain about this step's predicted decrease times that ratio (Gauss-Newton near a
+/// minimum with small residuals shrinks it about a millionth per step on noisy
+/// corners).
+const MAX_TAIL_RATIO: f64 = 1e-2;
 /// Levenberg-Marquardt damping of the first step, relative to the diagonal of `J^T J`:
 /// starts come from solvers that are already close, where Gauss-Newton's step is the
 /// right one.
@@ -37,8 +43,11 @@ pub struct Refined {
     /// Root mean square of the residuals' lengths, pixels.
     pub rms_px: f64,
     /// `J^T J` of the pixel residuals with respect to the left pose perturbation
-    /// `[omega; tau]` (see [`crate::camera::retract_pose`]), at the refined pose: the
-    /// pose's information matrix for unit pixel noise.
+    /// `[omega; tau]` (see [`crate::camera::retract_pose`]): the pose's information
+    /// matrix for unit pixel noise. It is taken at the refined pose, or one step before
+    /// it when that last step was known to be the last that changes the error
+    /// measurably (see [`refine`]): a step of about a millionth of the pose on noisy
+    /// corners, which changes `J^T J` about as much.
     pub information: Matrix6<f64>,
     /// Levenberg-Marquardt iterations taken.
     pub iterations: usize,
@@ -90,6 +99,33 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
         }
     }
     (sums[0] + sums[1]) + (sums[2] + sums[3]) + tail
+}
+
+/// The residuals and squared error at `camera_from_target`, without the Jacobian;
+/// `None` when a point is not in front of the camera.
+fn residuals_at(
+    camera: &CameraModel,
+    correspondences: &Correspondences,
+    camera_from_target: &Isometry3<f64>,
+) -> Option<(Vec<Vector2<f64>>, f64)> {
+    let rotation = camera_from_target.rotation.to_rotation_matrix();
+    let translation = camera_from_target.translation.vector;
+    let residuals = correspondences
+        .target_points
+        .iter()
+        .zip(&correspondences.pixels)
+        .map(|(point, pixel)| {
+            let in_camera = Point3::from(rotation * point.coords + translation);
+            if in_camera.z <= 0.0 {
+                return None;
+            }
+            camera
+                .project(&in_camera)
+                .map(|projected| projected - pixel)
+        })
+        .collect::<Option<Vec<_>>>()?;
+    let cost = residuals.iter().map(|r| r.norm_squared()).sum();
+    Some((residuals, cost))
 }
 
 /// Linearizes the pixel error at `camera_from_target`; `None` when a point is not in
@@ -144,6 +180,11 @@ fn linearize(
 /// Refines `initial` to the nearest minimum of the squared pixel reprojection error
 /// through `camera` (distortion included). Steps that would put a point behind the
 /// camera are refused, so the result keeps every point in front.
+///
+/// Converged means the next Gauss-Newton step would lower the squared error by no
+/// more than a 1e-12th. Near a minimum the decreases shrink geometrically; once the
+/// rate shows that the step after the current one would gain no more than that, the
+/// current step is checked on its residuals alone and is the last.
 ///
 /// Errors: [`PnpError::BehindCamera`] when `initial` already puts points behind the
 /// camera, [`PnpError::TooFewPoints`] with fewer than 3 correspondences.
@@ -204,6 +245,8 @@ fn refine_to(
     let mut iterations = 0;
     // The two decreases before the last accepted step, latest first.
     let mut earlier = [f64::NAN; 2];
+    // Gauss-Newton's predicted decrease for the last accepted step.
+    let mut last_predicted = f64::NAN;
     let mut converged = false;
     while iterations < MAX_ITERATIONS {
         iterations += 1;
@@ -222,9 +265,22 @@ fn refine_to(
             break;
         }
         let candidate = retract_pose(&pose, &step);
+        let ratio = predicted / last_predicted;
+        if ratio <= MAX_TAIL_RATIO
+            && predicted * ratio <= RELATIVE_TOLERANCE * lin.cost
+            && let Some((residuals, cost)) = residuals_at(camera, correspondences, &candidate)
+            && cost <= lin.cost
+        {
+            pose = candidate;
+            lin.residuals = residuals;
+            lin.cost = cost;
+            converged = true;
+            break;
+        }
         match linearize(camera, correspondences, &candidate, &mut columns) {
             Some(next) if next.cost <= lin.cost => {
                 let decrease = lin.cost - next.cost;
+                last_predicted = predicted;
                 pose = candidate;
                 lin = next;
                 let gain = decrease / predicted;
@@ -332,5 +388,49 @@ mod tests {
                 total: 54
             })
         ));
+    }
+
+    #[test]
+    fn a_step_known_to_be_the_last_leaves_the_minimum_reached() {
+        let camera = camera();
+        let truth = Isometry3::from_parts(
+            Translation3::new(0.05, -0.02, 0.8),
+            UnitQuaternion::from_scaled_axis(Vector3::new(2.8, 0.3, -0.2)),
+        );
+        let points: Vec<_> = board()
+            .iter()
+            .enumerate()
+            .map(|(i, p)| Point3::new(p.x, p.y, 0.01 * ((i * 7) % 5) as f64))
+            .collect();
+        // Fixed pseudo-noise of about 0.3 px.
+        let pixels: Vec<_> = points
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let noise = Vector2::new(((i * 13) % 7) as f64 - 3.0, ((i * 5) % 7) as f64 - 3.0);
+                camera.project(&(truth * p)).unwrap() + noise * 0.15
+            })
+            .collect();
+        let c = Correspondences::new(&camera, &points, &pixels).unwrap();
+        let start = Isometry3::from_parts(
+            Translation3::new(0.06, -0.03, 0.78),
+            UnitQuaternion::from_scaled_axis(Vector3::new(2.78, 0.31, -0.21)),
+        );
+        let refined = refine(&camera, &c, &start).unwrap();
+        // Refining again does not move the pose measurably, and the information matrix
+        // is the one at the pose returned, to the relative size of the last step (here
+        // about a millionth).
+        let again = refine(&camera, &c, &refined.camera_from_target).unwrap();
+        let moved = refined.camera_from_target.inverse() * again.camera_from_target;
+        assert!(moved.rotation.angle() < 1e-9, "{}", moved.rotation.angle());
+        assert!(moved.translation.vector.norm() < 1e-9);
+        assert!((again.rms_px - refined.rms_px).abs() < 1e-12 * refined.rms_px);
+        let mut columns = Columns::new(c.len());
+        let at_pose = linearize(&camera, &c, &refined.camera_from_target, &mut columns).unwrap();
+        let difference = (at_pose.jtj - refined.information).norm() / at_pose.jtj.norm();
+        assert!(difference < 1e-5, "information differs by {difference:e}");
+        for (a, b) in at_pose.residuals.iter().zip(&refined.residuals) {
+            assert!((a - b).norm() < 1e-9, "residual {a} against {b}");
+        }
     }
 }

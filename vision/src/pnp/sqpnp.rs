@@ -78,13 +78,12 @@ const SQP_MAX_ITERATIONS: usize = 100;
 /// Longest step along the constraints' null space, in 9-vector norm (about 0.7 rad of
 /// rotation): Newton steps from a nearly singular model are cut to this.
 const SQP_MAX_TANGENT_STEP: f64 = 1.0;
-/// First Levenberg-Marquardt damping of a refused step, relative to the largest
-/// eigenvalue of `Omega`; each further refusal multiplies it by ten.
+/// First Levenberg-Marquardt damping of a refused step, relative to the scale of
+/// `Omega` (see [`Sqp`]); each further refusal multiplies it by ten.
 const SQP_INITIAL_DAMPING: f64 = 1e-9;
 /// Refused steps in a row after which the run is abandoned.
 const SQP_MAX_REFUSALS: usize = 30;
-/// Rise of `r^T Omega r` a step may cause, relative to the largest eigenvalue of
-/// `Omega`: rounding, so that converged iterations are not stopped by noise.
+/// Rise of `r^T Omega r` a step may cause, relative to the scale of `Omega`: rounding, so that converged iterations are not stopped by noise.
 const SQP_OBJECTIVE_SLACK: f64 = 1e-12;
 /// Two minima whose rotation matrices differ by less than this (squared Frobenius norm,
 /// about 1e-4 rad) are the same minimum.
@@ -98,6 +97,13 @@ const COINCIDENCE_TOLERANCE: f64 = 1e-10;
 /// Image points whose RMS distance to their mean is below this (normalized units, a
 /// thousandth of a pixel at a focal length of 1000 px) coincide.
 const IMAGE_SPREAD_TOLERANCE: f64 = 1e-6;
+/// Inverse iterations for `Omega`'s least eigenvector before the full decomposition
+/// takes over: each gains the ratio of the two least eigenvalues, about a thousandth
+/// on noisy points, so a handful is typical.
+const INVERSE_ITERATIONS: usize = 20;
+/// Residual `|Omega x - (x^T Omega x) x|` below which inverse iteration's `x` is an
+/// eigenvector to rounding, relative to the trace of `Omega`.
+const EIGENVECTOR_RESIDUAL: f64 = 1e-14;
 /// Iteration cap of the SVD and eigen-decompositions.
 const DECOMPOSITION_MAX_ITERATIONS: usize = 1000;
 
@@ -356,6 +362,47 @@ impl<'a> Problem<'a> {
         Ok((vectors, values))
     }
 
+    /// The unit eigenvector of `Omega`'s least eigenvalue, by inverse iteration, when
+    /// `Omega` has no null space by a margin (`Omega - RANK_TOLERANCE tr(Omega) I` is
+    /// positive definite, so every eigenvalue is above [`RANK_TOLERANCE`] times the
+    /// largest) and the iteration converges to a backward-stable eigenvector (residual
+    /// within [`EIGENVECTOR_RESIDUAL`] of the trace); `None` otherwise, and the full
+    /// decomposition decides.
+    fn least_eigenvector(&self) -> Option<Vector9> {
+        let trace = self.omega.trace();
+        (self.omega - Matrix9::identity() * (RANK_TOLERANCE * trace)).cholesky()?;
+        let factor = self.omega.cholesky()?;
+        let mut x = Vector9::repeat(1.0 / 3.0);
+        for _ in 0..INVERSE_ITERATIONS {
+            x = factor.solve(&x);
+            let norm = x.norm();
+            if !(norm.is_finite() && norm > 0.0) {
+                return None;
+            }
+            x /= norm;
+            let omega_x = self.omega * x;
+            let residual = omega_x - x * x.dot(&omega_x);
+            if residual.norm() <= EIGENVECTOR_RESIDUAL * trace {
+                return Some(x);
+            }
+        }
+        None
+    }
+
+    /// Whether every eigenvalue of `Omega` but the least (of the unit eigenvector
+    /// `least`) exceeds `bound`: by Sylvester's law of inertia, exactly when `Omega`
+    /// with `least`'s eigenvalue lifted above `bound`, minus `bound`, is positive
+    /// definite.
+    fn others_exceed(&self, least: &Vector9, bound: f64) -> bool {
+        if !bound.is_finite() {
+            return false;
+        }
+        let lift = self.omega.trace() + bound.abs();
+        (self.omega + least * least.transpose() * lift - Matrix9::identity() * bound)
+            .cholesky()
+            .is_some()
+    }
+
     /// Translation, objective and points behind the camera of a rotation, local frame.
     fn evaluate(&self, rotation: &Matrix3<f64>) -> Evaluation {
         let translation = self.p * to_vector(rotation);
@@ -433,21 +480,11 @@ impl<'p, 'a> Search<'p, 'a> {
     /// Searches the minima of `problem`, whose target points spread least along the
     /// unit vector `thinnest`.
     fn run(problem: &'p Problem<'a>, thinnest: &Vector3<f64>) -> Result<Self, PnpError> {
-        let (u, s) = problem.eigen()?;
-        let largest = s[0];
-        let null_dimension = s.iter().filter(|&&v| v <= RANK_TOLERANCE * largest).count();
-        if null_dimension > MAX_NULL_SPACE {
-            return Err(PnpError::Degenerate(format!(
-                "the image points do not determine a pose: Omega has a null space of \
-                 dimension {null_dimension}, at most {MAX_NULL_SPACE} allowed (a target \
-                 seen edge-on?)"
-            )));
-        }
         let mut search = Self {
             problem,
             sqp: Sqp {
                 omega: &problem.omega,
-                scale: largest,
+                scale: problem.omega.trace(),
             },
             best_error: f64::INFINITY,
             minima: Vec::new(),
@@ -456,14 +493,37 @@ impl<'p, 'a> Search<'p, 'a> {
             half_turn: thinnest * thinnest.transpose() * 2.0 - Matrix3::identity(),
         };
         // Without a null space the eigenvector of the least eigenvalue stands in for it.
-        let first_null = 9 - null_dimension.max(1);
-        let null_vectors: Vec<Vector9> =
-            (first_null..9).map(|i| u.column(i) * 3f64.sqrt()).collect();
-        for e in &null_vectors {
-            search.start_from_null_vector(e);
+        // When Omega is positive definite well above rounding, that eigenvector comes
+        // from inverse iteration, and the full decomposition is only needed if a further
+        // eigenvector might improve on the minimum found (see below).
+        let least = problem.least_eigenvector();
+        if let Some(e) = &least {
+            search.start_from_null_vector(&(e * 3f64.sqrt()));
+            if problem.others_exceed(e, search.best_error / 3.0) {
+                return Ok(search);
+            }
         }
-        if null_dimension == MAX_NULL_SPACE {
-            search.start_from_null_space_combinations(&null_vectors);
+        let (u, s) = problem.eigen()?;
+        let largest = s[0];
+        search.sqp.scale = largest;
+        let null_dimension = s.iter().filter(|&&v| v <= RANK_TOLERANCE * largest).count();
+        if null_dimension > MAX_NULL_SPACE {
+            return Err(PnpError::Degenerate(format!(
+                "the image points do not determine a pose: Omega has a null space of \
+                 dimension {null_dimension}, at most {MAX_NULL_SPACE} allowed (a target \
+                 seen edge-on?)"
+            )));
+        }
+        let first_null = 9 - null_dimension.max(1);
+        if least.is_none() {
+            let null_vectors: Vec<Vector9> =
+                (first_null..9).map(|i| u.column(i) * 3f64.sqrt()).collect();
+            for e in &null_vectors {
+                search.start_from_null_vector(e);
+            }
+            if null_dimension == MAX_NULL_SPACE {
+                search.start_from_null_space_combinations(&null_vectors);
+            }
         }
         // A rotation's 9-vector has squared norm 3, so a minimum near the eigenvector of
         // eigenvalue s costs at least about 3 s: further eigenvectors can only improve on
@@ -594,7 +654,9 @@ fn orthogonality_error(e: &Vector9) -> f64 {
 /// needed inside the iteration.
 struct Sqp<'o> {
     omega: &'o Matrix9,
-    /// Largest eigenvalue of `Omega`: the scale of the objective and its Hessian.
+    /// The scale of the objective and its Hessian: the largest eigenvalue of `Omega`,
+    /// or its trace (at most nine times that) where only the least eigenvector was
+    /// computed.
     scale: f64,
 }
 
@@ -1352,5 +1414,49 @@ mod tests {
             sqpnp(&points, &normalized),
             Err(PnpError::NoSolution(_))
         ));
+    }
+
+    #[test]
+    fn inverse_iteration_finds_the_least_eigenvector_and_inertia_bounds_the_others() {
+        let mut rng = ChaCha8Rng::seed_from_u64(41);
+        let mut fast = 0;
+        for n in [6, 20, 54] {
+            for _ in 0..40 {
+                let problem = random_problem(&mut rng, n, false, 0.3);
+                let normalized = problem.normalized();
+                let frame = TargetFrame::fit(&problem.points).unwrap();
+                let local: Vec<_> = problem.points.iter().map(|p| frame.to_local(p)).collect();
+                let quadratic = Problem::new(&local, &normalized).unwrap();
+                let (u, s) = quadratic.eigen().unwrap();
+                let Some(least) = quadratic.least_eigenvector() else {
+                    continue;
+                };
+                fast += 1;
+                // The same direction as the decomposition's, to its accuracy.
+                let alignment = least.dot(&u.column(8)).abs();
+                assert!(1.0 - alignment < 1e-10, "n {n}: alignment {alignment}");
+                // Inertia: the others all exceed a bound exactly when the second least does.
+                for bound in [s[7] * 0.999, s[7] * 1.001, s[8], s[0] * 2.0] {
+                    assert_eq!(
+                        quadratic.others_exceed(&least, bound),
+                        s[7] > bound,
+                        "n {n}: bound {bound:e}, eigenvalues {s:?}"
+                    );
+                }
+            }
+        }
+        // Noisy points spread in depth leave Omega positive definite: the fast path.
+        assert!(fast >= 100, "{fast} of 120 by inverse iteration");
+    }
+
+    #[test]
+    fn a_planar_target_has_a_null_space_and_is_decomposed_in_full() {
+        let mut rng = ChaCha8Rng::seed_from_u64(43);
+        let problem = random_problem(&mut rng, 20, true, 0.0);
+        let normalized = problem.normalized();
+        let frame = TargetFrame::fit(&problem.points).unwrap();
+        let local: Vec<_> = problem.points.iter().map(|p| frame.to_local(p)).collect();
+        let quadratic = Problem::new(&local, &normalized).unwrap();
+        assert!(quadratic.least_eigenvector().is_none());
     }
 }
