@@ -135,10 +135,16 @@ impl Worker for RectifyWorker {
     }
 
     fn summary(&self) -> String {
+        let replaced = self.publisher.dropped_before_dds();
         format!(
-            "{} published ({} over DDS)",
+            "{} published ({} over DDS{})",
             self.published,
-            self.publisher.sent_over_dds()
+            self.publisher.sent_over_dds(),
+            if replaced > 0 {
+                format!(", {replaced} replaced by newer ones before DDS sent them")
+            } else {
+                String::new()
+            }
         )
     }
 }

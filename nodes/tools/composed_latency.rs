@@ -28,7 +28,7 @@ use stereocal_runtime::shutdown::Shutdown;
 use stereocal_runtime::skeleton::{self, FrameStats, Inputs, Worker};
 use stereocal_runtime::sync::{SyncPolicy, Synced};
 use stereocal_runtime::testing::{DomainLease, PeerNode};
-use stereocal_runtime::transport::TransportConfig;
+use stereocal_runtime::transport::{DDS_NICE_ENV, TransportConfig};
 
 /// Queues of the nodes and subscriptions, as the rectify node's default.
 const DEPTH: usize = 5;
@@ -163,8 +163,11 @@ fn measure(args: &Args, domain: u16) -> anyhow::Result<()> {
     let mut outside = if args.in_process_only {
         None
     } else {
+        // The outside subscriber is another program: the DDS priority asked of the
+        // composed process is not its.
         let mut child = Command::new(std::env::current_exe()?)
             .args(["--subscriber", "--domain", &domain.to_string()])
+            .env_remove(DDS_NICE_ENV)
             .stdin(Stdio::piped())
             .stdout(Stdio::piped())
             .spawn()

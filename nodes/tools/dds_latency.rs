@@ -231,6 +231,7 @@ impl Args {
             } else {
                 DiscoveryRange::Subnet
             },
+            dds_nice: defaults.dds_nice,
         }
     }
 

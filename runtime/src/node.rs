@@ -6,7 +6,7 @@
 use std::sync::Arc;
 use std::thread::JoinHandle;
 
-use ros2_client::qos::Durability;
+use ros2_client::qos::{Durability, History};
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, ParameterValue, Publisher,
     QosProfile, Subscription,
@@ -23,7 +23,7 @@ use super::names::NodeIdentity;
 use super::param_services::ParameterServices;
 use super::param_store::ParameterStore;
 use super::params::{ParamSpec, startup_params, type_name};
-use super::publisher::TopicPublisher;
+use super::publisher::{DdsSending, TopicPublisher};
 use super::raw::RawCdr;
 use super::ready::ready_before;
 use super::service::{self, ServiceClient, ServiceServer};
@@ -280,6 +280,7 @@ impl NodeBuilder {
             parameter_services: Some(parameter_services),
             node: Some(node),
             context,
+            dds_nice: transport.dds_nice,
             shutdown,
             spinner_thread: Some(spinner_thread),
         })
@@ -299,6 +300,8 @@ pub struct RosNode {
     parameter_services: Option<ParameterServices>,
     node: Option<Node>,
     context: Context,
+    /// Steps of nice of the DDS threads below the node's (see [`TransportConfig`]).
+    dds_nice: u8,
     shutdown: Shutdown,
     spinner_thread: Option<JoinHandle<()>>,
 }
@@ -443,17 +446,27 @@ impl RosNode {
     {
         let (resolved, topic) = self.topic::<M>(name, &qos)?;
         let latched = qos.durability == Durability::TransientLocal;
+        let history = qos.history;
         let publisher = self
             .node_mut()?
             .create_publisher::<Arc<M>>(&topic, Some(qos))
             .map_err(|e| middleware(&format!("publisher on {resolved}"), e))?;
         log::debug!("publishing {resolved} ({})", M::TYPE_NAME);
-        Ok(TopicPublisher::new(
+        let sending = match (self.dds_nice, history) {
+            (0, _) => DdsSending::Inline,
+            (nice, History::KeepLast { depth }) => DdsSending::Deferred { nice, depth },
+            (nice, History::KeepAll) => DdsSending::Deferred {
+                nice,
+                depth: usize::MAX,
+            },
+        };
+        TopicPublisher::new(
             &resolved,
             publisher,
             self.context.domain_participant(),
             latched,
-        ))
+            sending,
+        )
     }
 
     /// Creates a publisher of recorded samples of ROS type `type_name` (`pkg/msg/Type`)
@@ -541,6 +554,7 @@ mod tests {
             socket_receive_buffer: 1 << 20,
             socket_send_buffer: 2 << 20,
             range: DiscoveryRange::Localhost,
+            dds_nice: 0,
         };
         assert_eq!(DdsOptions::default().apply(from_env.clone()), from_env);
         let options = DdsOptions {

@@ -2,7 +2,9 @@
 //! in this process ([`crate::intra`]), and over DDS only while a reader outside the
 //! process listens, so a frame nobody outside wants is never serialized. A transient
 //! local (latched) topic always goes over DDS too, so that its last messages wait in
-//! the writer for readers that join later.
+//! the writer for readers that join later. A node whose DDS threads run at a lower
+//! priority ([`crate::transport::DDS_NICE_ENV`]) also serializes and sends its other
+//! topics from a thread of that priority ([`crate::dds_sender`]).
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -12,6 +14,7 @@ use ros2_client::Publisher;
 use ros2_client::dds::rustdds::DomainParticipant;
 use serde::Serialize;
 
+use crate::dds_sender::DeferredSender;
 use crate::error::{Result, RuntimeError};
 use crate::intra::IntraPublication;
 
@@ -19,33 +22,58 @@ use crate::intra::IntraPublication;
 const DISCOVERY_POLL: Duration = Duration::from_millis(5);
 
 /// The publisher of messages `M` on one topic; see the module documentation.
-pub struct TopicPublisher<M: Serialize> {
-    dds: Publisher<Arc<M>>,
+pub struct TopicPublisher<M: Serialize + Send + Sync + 'static> {
+    dds: Arc<Publisher<Arc<M>>>,
     participant: DomainParticipant,
     dds_topic: String,
     latched: bool,
     intra: IntraPublication,
     over_dds: AtomicU64,
+    deferred: Option<DeferredSender<M>>,
+}
+
+/// How a publisher hands its messages to DDS.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum DdsSending {
+    /// On the publishing thread, as `publish` is called.
+    Inline,
+    /// From a thread of its own, `nice` steps of nice lower, at most `depth` waiting.
+    Deferred {
+        /// Steps of nice below the node's threads.
+        nice: u8,
+        /// Messages that may wait; beyond it the oldest is dropped.
+        depth: usize,
+    },
 }
 
 impl<M: Serialize + Send + Sync + 'static> TopicPublisher<M> {
     /// The publisher of the ROS topic `topic` (resolved), over the DDS writer `dds` of
-    /// `participant`, transient local when `latched`.
+    /// `participant`, transient local when `latched` (a latched topic is always sent
+    /// inline, whatever `sending` asks).
     pub(crate) fn new(
         topic: &str,
         dds: Publisher<Arc<M>>,
         participant: DomainParticipant,
         latched: bool,
-    ) -> Self {
+        sending: DdsSending,
+    ) -> Result<Self> {
         let intra = IntraPublication::new(topic, dds.gid());
-        Self {
+        let dds = Arc::new(dds);
+        let deferred = match sending {
+            DdsSending::Deferred { nice, depth } if !latched => {
+                Some(DeferredSender::start(Arc::clone(&dds), topic, nice, depth)?)
+            }
+            _ => None,
+        };
+        Ok(Self {
             dds,
             participant,
             dds_topic: format!("rt{topic}"),
             latched,
             intra,
             over_dds: AtomicU64::new(0),
-        }
+            deferred,
+        })
     }
 
     /// Publishes `message`.
@@ -57,6 +85,10 @@ impl<M: Serialize + Send + Sync + 'static> TopicPublisher<M> {
     pub fn publish_shared(&self, message: Arc<M>) -> Result<()> {
         self.intra.deliver(&message);
         if self.latched || self.outside_readers() > 0 {
+            if let Some(deferred) = &self.deferred {
+                deferred.send(message);
+                return Ok(());
+            }
             self.dds
                 .publish(message)
                 .map_err(|e| RuntimeError::Middleware(format!("{}: {e}", self.dds_topic)))?;
@@ -67,7 +99,14 @@ impl<M: Serialize + Send + Sync + 'static> TopicPublisher<M> {
 
     /// Messages sent over DDS so far (the others reached only this process).
     pub fn sent_over_dds(&self) -> u64 {
-        self.over_dds.load(Ordering::Relaxed)
+        self.over_dds.load(Ordering::Relaxed) + self.deferred.as_ref().map_or(0, |d| d.sent())
+    }
+
+    /// Messages for readers outside the process dropped before DDS had sent them,
+    /// because newer ones filled the topic's history (only when DDS sends from a
+    /// thread of lower priority, see the module documentation).
+    pub fn dropped_before_dds(&self) -> u64 {
+        self.deferred.as_ref().map_or(0, |d| d.dropped())
     }
 
     /// Waits until a DDS reader of the topic outside this process has been discovered,

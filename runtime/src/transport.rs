@@ -14,8 +14,9 @@
 //! What the node runtime can set from our side is gathered in
 //! [`TransportConfig`]. Every node reads it from its environment at start-up
 //! ([`TransportConfig::from_env`]): the discovery range from the ROS 2
-//! variables, and the socket buffer requests from [`RECEIVE_BUFFER_ENV`] and
-//! [`SEND_BUFFER_ENV`].
+//! variables, the socket buffer requests from [`RECEIVE_BUFFER_ENV`] and
+//! [`SEND_BUFFER_ENV`], and the CPU priority of the DDS threads from
+//! [`DDS_NICE_ENV`].
 
 use std::net::Ipv4Addr;
 
@@ -37,6 +38,16 @@ pub const RECEIVE_BUFFER_ENV: &str = "STEREOCAL_DDS_RECEIVE_BUFFER";
 /// Environment variable with the `SO_SNDBUF` request of a node's DDS sockets,
 /// written like [`RECEIVE_BUFFER_ENV`].
 pub const SEND_BUFFER_ENV: &str = "STEREOCAL_DDS_SEND_BUFFER";
+
+/// Environment variable with how many steps of nice lower the CPU priority of a
+/// node's DDS threads (RustDDS's event loop, which serializes nothing but sends and
+/// receives every datagram, and its discovery thread) below the node's own threads:
+/// 0 to 19, default 0. Where the CPU is short, the node's processing then goes first
+/// and the datagrams of frames for other processes are sent in the time left over.
+pub const DDS_NICE_ENV: &str = "STEREOCAL_DDS_NICE";
+
+/// Largest nice value Linux has.
+const MAX_NICE: u8 = 19;
 
 /// Why the transport settings are unusable or a DDS participant could not be
 /// created.
@@ -144,6 +155,9 @@ pub struct TransportConfig {
     pub socket_send_buffer: usize,
     /// Which interfaces the participant uses and advertises.
     pub range: DiscoveryRange,
+    /// Steps of nice by which the participant's threads run below the thread that
+    /// creates it (see [`DDS_NICE_ENV`]); 0 leaves them alike.
+    pub dds_nice: u8,
 }
 
 impl TransportConfig {
@@ -154,6 +168,7 @@ impl TransportConfig {
             socket_receive_buffer: RUSTDDS_DEFAULT_SOCKET_BUFFER,
             socket_send_buffer: RUSTDDS_DEFAULT_SOCKET_BUFFER,
             range: DiscoveryRange::Subnet,
+            dds_nice: 0,
         }
     }
 
@@ -182,10 +197,25 @@ impl TransportConfig {
                 expected: "a size in bytes, optionally with a KiB or MiB suffix",
             }),
         };
+        let dds_nice = match lookup(DDS_NICE_ENV) {
+            None => 0,
+            Some(value) if value.trim().is_empty() => 0,
+            Some(value) => value
+                .trim()
+                .parse::<u8>()
+                .ok()
+                .filter(|nice| *nice <= MAX_NICE)
+                .ok_or(TransportError::Setting {
+                    variable: DDS_NICE_ENV,
+                    value,
+                    expected: "a whole number from 0 to 19",
+                })?,
+        };
         Ok(Self {
             socket_receive_buffer: buffer(RECEIVE_BUFFER_ENV)?,
             socket_send_buffer: buffer(SEND_BUFFER_ENV)?,
             range,
+            dds_nice,
         })
     }
 
@@ -219,14 +249,40 @@ impl TransportConfig {
         }
     }
 
-    /// A DDS participant on `domain_id` with these settings.
+    /// A DDS participant on `domain_id` with these settings. With a `dds_nice`, it is
+    /// created on a thread of its own whose priority is lowered first: the threads
+    /// RustDDS starts inherit it, and the caller's priority stays as it was.
     pub fn participant(&self, domain_id: u16) -> Result<DomainParticipant, TransportError> {
-        self.participant_builder(domain_id)
-            .build()
-            .map_err(|e| TransportError::Participant {
-                domain_id,
-                reason: e.to_string(),
-            })
+        let build = || {
+            self.participant_builder(domain_id)
+                .build()
+                .map_err(|e| TransportError::Participant {
+                    domain_id,
+                    reason: e.to_string(),
+                })
+        };
+        if self.dds_nice == 0 {
+            return build();
+        }
+        std::thread::scope(|scope| {
+            scope
+                .spawn(|| {
+                    crate::priority::lower_this_thread(self.dds_nice).map_err(|e| {
+                        TransportError::Participant {
+                            domain_id,
+                            reason: format!("cannot lower the DDS threads' priority: {e}"),
+                        }
+                    })?;
+                    build()
+                })
+                .join()
+                .unwrap_or_else(|_| {
+                    Err(TransportError::Participant {
+                        domain_id,
+                        reason: "the thread creating it stopped".into(),
+                    })
+                })
+        })
     }
 
     /// A ROS 2 context on `domain_id` with these settings.
@@ -250,7 +306,11 @@ impl std::fmt::Display for TransportConfig {
             f,
             "{range}, SO_RCVBUF {} B, SO_SNDBUF {} B requested",
             self.socket_receive_buffer, self.socket_send_buffer
-        )
+        )?;
+        if self.dds_nice > 0 {
+            write!(f, ", DDS threads at nice +{}", self.dds_nice)?;
+        }
+        Ok(())
     }
 }
 
@@ -325,6 +385,7 @@ mod tests {
                 socket_receive_buffer: 16 << 20,
                 socket_send_buffer: 0,
                 range: DiscoveryRange::Localhost,
+                dds_nice: 0,
             }
         );
         let blank = TransportConfig::from_lookup(env(&[
@@ -347,6 +408,21 @@ mod tests {
                 .to_string()
                 .contains("STEREOCAL_DDS_SEND_BUFFER=\"lots\"")
         );
+    }
+
+    #[test]
+    fn the_dds_threads_nice_is_read_from_the_environment() {
+        let nice = |value: &str| TransportConfig::from_lookup(env(&[(DDS_NICE_ENV, value)]));
+        assert_eq!(nice("10").unwrap().dds_nice, 10);
+        assert_eq!(nice(" ").unwrap().dds_nice, 0);
+        assert_eq!(TransportConfig::from_lookup(env(&[])).unwrap().dds_nice, 0);
+        for bad in ["20", "-3", "high"] {
+            let error = nice(bad).unwrap_err().to_string();
+            assert!(
+                error.contains(DDS_NICE_ENV) && error.contains(bad),
+                "{error}"
+            );
+        }
     }
 
     #[test]

@@ -26,6 +26,7 @@ use stereocal_msgs::std_msgs::Header;
 use stereocal_runtime::qos;
 use stereocal_runtime::service::{self, ServiceClient};
 use stereocal_runtime::testing::{DomainLease, NodeProcess, block_on_timeout};
+use stereocal_runtime::transport::DDS_NICE_ENV;
 use stereocal_vision::rectify::RemapOptions;
 
 use crate::common;
@@ -38,10 +39,16 @@ const TIMEOUT: Duration = Duration::from_secs(60);
 
 /// Starts `rectify_node` in namespace `/cam` on `domain`, with `extra` ROS arguments.
 fn start_node(domain: &DomainLease, extra: &[&str]) -> NodeProcess {
+    start_node_with_env(domain, extra, &[])
+}
+
+/// [`start_node`] with environment variables `env` set.
+fn start_node_with_env(domain: &DomainLease, extra: &[&str], env: &[(&str, &str)]) -> NodeProcess {
     let mut command = Command::new(env!("CARGO_BIN_EXE_rectify_node"));
     command
         .args(["--ros-args", "-r", "__ns:=/cam", "-r", "image:=image_raw"])
-        .args(extra);
+        .args(extra)
+        .envs(env.iter().copied());
     NodeProcess::spawn(command, domain.id()).expect("rectify_node starts")
 }
 
@@ -94,8 +101,21 @@ fn image(stamp: Time, rgb: bool, seed: u32) -> Image {
 
 #[test]
 fn rectifies_every_frame_like_the_stage_and_stops_on_sigterm() {
+    rectifies_every_frame_like_the_stage(&[]);
+}
+
+#[test]
+fn with_its_dds_threads_at_a_lower_priority_every_frame_still_goes_over_dds_in_order() {
+    // image_rect is then serialized and sent from a thread of its own.
+    rectifies_every_frame_like_the_stage(&[(DDS_NICE_ENV, "10")]);
+}
+
+/// Frames published to a rectify_node started with `env` come back on `image_rect`
+/// over DDS, every one equal to the rectify stage's and in order; a bad frame is
+/// reported and skipped; SIGTERM stops the node cleanly.
+fn rectifies_every_frame_like_the_stage(env: &[(&str, &str)]) {
     let domain = DomainLease::for_test().expect("a ROS domain");
-    let process = start_node(&domain, &["-p", "interpolation:=1"]);
+    let process = start_node_with_env(&domain, &["-p", "interpolation:=1"], env);
     let mut peer = common::test_node(&domain, "frames");
     let rosout_topic = peer.context().get_rosout_topic();
     let rosout = peer
