@@ -88,6 +88,13 @@ impl fmt::Display for Mode {
 pub struct Frame {
     /// The bytes the device filled (`bytesused`): packed pixels, or one JPEG.
     pub data: Vec<u8>,
+    /// Bytes from the start of one row of packed pixels to the next (V4L2
+    /// `bytesperline`): a row's bytes, or more where the driver pads its rows; 0 for
+    /// compressed frames and where the device does not say (rows are then packed).
+    pub stride: usize,
+    /// Whether the device marked the frame as damaged (V4L2 `V4L2_BUF_FLAG_ERROR`):
+    /// its bytes may be partly wrong, and camera_node publishes nothing of it.
+    pub damaged: bool,
     /// When the device captured it, on `CLOCK_MONOTONIC` (the V4L2 buffer timestamp).
     pub timestamp: Duration,
     /// The device's frame counter (the V4L2 buffer sequence number); a jump of more

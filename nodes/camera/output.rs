@@ -131,27 +131,74 @@ impl FrameOutput {
     }
 }
 
-/// Bytes at the end of an MJPEG frame searched for its end marker: some devices pad
-/// their buffers after it.
+/// Bytes before the end of an MJPEG frame (after any zero padding) searched for its
+/// end marker: some devices leave a few bytes after it.
 const JPEG_TAIL: usize = 4096;
 
 /// Checks, without decoding, that `data` is a whole JPEG: the start-of-image marker
-/// first and an end-of-image marker near its end (a truncated frame has none).
-fn check_jpeg_ends(data: &[u8]) -> Result<(), String> {
+/// first and an end-of-image marker near its end (a truncated frame has none), after
+/// the zero bytes some devices pad their buffers with. The length of the JPEG up to
+/// its end marker.
+fn check_jpeg_ends(data: &[u8]) -> Result<usize, String> {
     if !data.starts_with(&[0xff, 0xd8]) {
         return Err(format!(
             "not a JPEG: {} bytes without the start-of-image marker",
             data.len()
         ));
     }
-    let tail = &data[data.len().saturating_sub(JPEG_TAIL).max(2)..];
-    if !tail.windows(2).any(|w| w == [0xff, 0xd9]) {
+    let filled = data
+        .iter()
+        .rposition(|&b| b != 0)
+        .map_or(0, |last| last + 1);
+    let start = filled.saturating_sub(JPEG_TAIL).max(2);
+    data[start..filled]
+        .windows(2)
+        .rposition(|w| w == [0xff, 0xd9])
+        .map(|at| start + at + 2)
+        .ok_or_else(|| {
+            format!(
+                "truncated JPEG: {} bytes without the end-of-image marker",
+                data.len()
+            )
+        })
+}
+
+/// The `height` rows of `width_bytes` bytes of a frame whose rows start `stride`
+/// bytes apart (0: packed), packed; an error when the stride is shorter than a row or
+/// the frame shorter than its rows.
+fn packed_rows(
+    mut data: Vec<u8>,
+    width_bytes: usize,
+    height: usize,
+    stride: usize,
+) -> Result<Vec<u8>, String> {
+    let stride = if stride == 0 { width_bytes } else { stride };
+    if stride < width_bytes {
         return Err(format!(
-            "truncated JPEG: {} bytes without the end-of-image marker",
+            "rows {stride} bytes apart are shorter than a row of {width_bytes} bytes"
+        ));
+    }
+    let needed = if height == 0 {
+        0
+    } else {
+        stride * (height - 1) + width_bytes
+    };
+    if data.len() < needed {
+        return Err(format!(
+            "with rows {stride} bytes apart it needs {needed} bytes, the frame has {}",
             data.len()
         ));
     }
-    Ok(())
+    if stride == width_bytes {
+        data.truncate(width_bytes * height);
+        return Ok(data);
+    }
+    Ok(data
+        .chunks(stride)
+        .take(height)
+        .flat_map(|row| &row[..width_bytes])
+        .copied()
+        .collect())
 }
 
 fn messages(
@@ -166,6 +213,11 @@ fn messages(
     };
     let (width, height) = (mode.width as usize, mode.height as usize);
     let sequence = frame.sequence;
+    if frame.damaged {
+        return Err(format!(
+            "frame {sequence}: the device marked it damaged (V4L2_BUF_FLAG_ERROR)"
+        ));
+    }
     let image = |encoding: OutputEncoding, data: Vec<u8>| Image {
         header: header.clone(),
         height: mode.height,
@@ -186,7 +238,12 @@ fn messages(
                 OutputEncoding::Rgb8 => yuyv_to_rgb8,
                 OutputEncoding::Mono8 => yuyv_to_mono8,
             };
-            let pixels = convert(&frame.data, width, height, width * 2)
+            let stride = if frame.stride == 0 {
+                width * 2
+            } else {
+                frame.stride
+            };
+            let pixels = convert(&frame.data, width, height, stride)
                 .map_err(|e| format!("frame {sequence}: {e}"))?;
             Ok(Messages {
                 image: Some(image(settings.encoding, pixels)),
@@ -194,22 +251,19 @@ fn messages(
             })
         }
         PixelFormat::Grey => {
-            let mut data = frame.data;
-            if data.len() < width * height {
-                return Err(format!(
-                    "frame {sequence}: a {width}x{height} GREY image needs {} bytes, the frame has {}",
-                    width * height,
-                    data.len()
-                ));
-            }
-            data.truncate(width * height);
+            let data = packed_rows(frame.data, width, height, frame.stride)
+                .map_err(|e| format!("frame {sequence}: a {width}x{height} GREY image: {e}"))?;
             Ok(Messages {
                 image: Some(image(OutputEncoding::Mono8, data)),
                 compressed: None,
             })
         }
         PixelFormat::Mjpeg => {
-            check_jpeg_ends(&frame.data).map_err(|e| format!("frame {sequence}: {e}"))?;
+            let length =
+                check_jpeg_ends(&frame.data).map_err(|e| format!("frame {sequence}: {e}"))?;
+            let mut data = frame.data;
+            // What the device padded after the end marker is not sent on.
+            data.truncate(length);
             let format = match settings.encoding {
                 OutputEncoding::Rgb8 => "rgb8; jpeg compressed bgr8",
                 OutputEncoding::Mono8 => "mono8; jpeg compressed mono8",
@@ -218,7 +272,7 @@ fn messages(
                 header,
                 format: format.to_owned(),
                 // The device's bytes themselves: moved, not copied.
-                data: frame.data,
+                data,
             };
             let decoded = match settings.mjpeg {
                 MjpegOutput::Compressed => None,

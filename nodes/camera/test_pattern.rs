@@ -231,8 +231,10 @@ impl CameraDevice for TestPattern {
             .unwrap_or_default();
         let frame = Frame {
             data,
+            stride: 0,
             timestamp: monotonic_now(),
             sequence: self.sequence,
+            damaged: false,
         };
         self.sequence = self.sequence.wrapping_add(1);
         Ok(Some(frame))

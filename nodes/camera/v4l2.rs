@@ -6,7 +6,7 @@
 use std::io;
 use std::time::Duration;
 
-use v4l::buffer::Type;
+use v4l::buffer::{Flags as BufferFlags, Type};
 use v4l::capability::Flags;
 use v4l::control::{self, MenuItem, Value};
 use v4l::io::mmap::Stream;
@@ -25,6 +25,8 @@ pub struct V4l2Device {
     path: String,
     device: Device,
     stream: Option<Stream<'static>>,
+    /// The granted format's `bytesperline`.
+    stride: usize,
 }
 
 impl V4l2Device {
@@ -54,6 +56,7 @@ impl V4l2Device {
             path: path.to_owned(),
             device,
             stream: None,
+            stride: 0,
         })
     }
 
@@ -148,6 +151,7 @@ impl CameraDevice for V4l2Device {
         let stream = Stream::with_buffers(&self.device, Type::VideoCapture, BUFFERS)
             .map_err(self.io_error("mapping capture buffers"))?;
         self.stream = Some(stream);
+        self.stride = format.stride as usize;
         Ok(Mode {
             format: format_code,
             width: format.width,
@@ -208,8 +212,10 @@ impl CameraDevice for V4l2Device {
                 );
                 Ok(Some(Frame {
                     data: buffer[..used].to_vec(),
+                    stride: self.stride,
                     timestamp,
                     sequence: meta.sequence,
+                    damaged: meta.flags.contains(BufferFlags::ERROR),
                 }))
             }
             Err(e) if e.kind() == io::ErrorKind::TimedOut => Ok(None),

@@ -96,9 +96,127 @@ fn jpeg(rgb: &[u8]) -> Vec<u8> {
 fn frame(data: Vec<u8>, sequence: u32, timestamp_ms: u64) -> Frame {
     Frame {
         data,
+        stride: 0,
         timestamp: Duration::from_millis(timestamp_ms),
         sequence,
+        damaged: false,
     }
+}
+
+/// `packed`'s rows of `row_bytes` moved `stride` bytes apart, the gaps filled with
+/// bytes no image has, as a driver that pads its rows delivers them.
+fn padded(packed: &[u8], row_bytes: usize, stride: usize) -> Vec<u8> {
+    packed
+        .chunks(row_bytes)
+        .flat_map(|row| {
+            row.iter()
+                .copied()
+                .chain(std::iter::repeat_n(0xa5, stride - row_bytes))
+        })
+        .collect()
+}
+
+#[test]
+fn rows_a_driver_pads_come_out_as_the_packed_frame_would() {
+    let settings_of = |encoding| settings(encoding, MjpegOutput::Raw);
+    for (format, row_bytes, packed, encodings) in [
+        (
+            PixelFormat::Yuyv,
+            WIDTH as usize * 2,
+            yuyv_frame(6),
+            vec![OutputEncoding::Rgb8, OutputEncoding::Mono8],
+        ),
+        (
+            PixelFormat::Grey,
+            WIDTH as usize,
+            (0..WIDTH * HEIGHT).map(|i| (i * 7 % 251) as u8).collect(),
+            vec![OutputEncoding::Mono8],
+        ),
+    ] {
+        for encoding in encodings {
+            let mut output = FrameOutput::new();
+            let from_packed = output
+                .convert(
+                    frame(packed.clone(), 0, 0),
+                    &mode(format),
+                    Time::default(),
+                    &settings_of(encoding),
+                )
+                .expect("packed")
+                .image
+                .expect("image_raw");
+            let stride = row_bytes + 24;
+            let mut padded_frame = frame(padded(&packed, row_bytes, stride), 1, 0);
+            padded_frame.stride = stride;
+            let from_padded = output
+                .convert(
+                    padded_frame,
+                    &mode(format),
+                    Time::default(),
+                    &settings_of(encoding),
+                )
+                .expect("padded")
+                .image
+                .expect("image_raw");
+            assert_eq!(from_padded, from_packed, "{format} to {encoding:?}");
+            // A stride shorter than a row is refused with the numbers.
+            let mut short = frame(packed.clone(), 2, 0);
+            short.stride = row_bytes - 2;
+            let error = output
+                .convert(
+                    short,
+                    &mode(format),
+                    Time::default(),
+                    &settings_of(encoding),
+                )
+                .expect_err("short stride");
+            assert!(error.contains(&(row_bytes - 2).to_string()), "{error}");
+        }
+    }
+}
+
+#[test]
+fn a_frame_the_device_marked_damaged_is_counted_and_not_published() {
+    let mut output = FrameOutput::new();
+    let mut damaged = frame(yuyv_frame(7), 0, 0);
+    damaged.damaged = true;
+    let error = output
+        .convert(
+            damaged,
+            &mode(PixelFormat::Yuyv),
+            Time::default(),
+            &settings(OutputEncoding::Rgb8, MjpegOutput::Raw),
+        )
+        .expect_err("damaged");
+    assert!(error.contains("V4L2_BUF_FLAG_ERROR"), "{error}");
+    assert_eq!(output.counts().bad_frames, 1);
+    let next = output.convert(
+        frame(yuyv_frame(7), 1, 33),
+        &mode(PixelFormat::Yuyv),
+        Time::default(),
+        &settings(OutputEncoding::Rgb8, MjpegOutput::Raw),
+    );
+    assert!(next.is_ok_and(|m| m.image.is_some()));
+    assert_eq!(output.counts().bad_frames, 1);
+}
+
+#[test]
+fn an_mjpeg_buffer_padded_with_zeros_is_passed_on_without_the_padding() {
+    let mut output = FrameOutput::new();
+    let whole = jpeg(&rgb_frame(8));
+    // More padding than the tail searched for the end marker.
+    let mut data = whole.clone();
+    data.resize(whole.len() + 3 * 4096, 0);
+    let messages = output
+        .convert(
+            frame(data, 0, 0),
+            &mode(PixelFormat::Mjpeg),
+            Time::default(),
+            &settings(OutputEncoding::Rgb8, MjpegOutput::Both),
+        )
+        .expect("a whole JPEG");
+    assert_eq!(messages.compressed.expect("compressed").data, whole);
+    assert!(messages.image.is_some());
 }
 
 #[test]
