@@ -80,7 +80,9 @@ use crate::detect::chess::ring::RingOffsets;
 /// the response and detection stages without going through the facade.
 pub use crate::params::ChessParams;
 
-pub use crate::detect::chess::response::{chess_response_u8, chess_response_u8_patch, Roi};
+pub use crate::detect::chess::response::{
+    chess_response_u8, chess_response_u8_into, chess_response_u8_patch, Roi,
+};
 pub use crate::detect::dense::{ChessBuffers, ChessDetector, DenseDetector, RadonDetector};
 pub use crate::detect::radon::primitives::PeakFitMode;
 pub use crate::detect::radon::{

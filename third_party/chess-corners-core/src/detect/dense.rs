@@ -36,7 +36,7 @@ use super::{
             detect_peaks_from_response_with_refine_radius, refine_corners_on_image,
             refine_corners_on_image_with_fallback,
         },
-        response::{chess_response_u8, chess_response_u8_patch, Roi},
+        response::{chess_response_u8_into, chess_response_u8_patch, Roi},
     },
     radon::{
         detect::{attach_peak_fit_covariances, retain_above_relative_threshold},
@@ -286,14 +286,16 @@ impl DenseDetector for ChessDetector {
         params: &Self::Params,
         buffers: &'a mut Self::Buffers,
     ) -> Self::Response<'a> {
-        // chess_response_u8 returns an owned ResponseMap. Swap it into
-        // the buffer so the borrow returned to the caller lives as long
-        // as `buffers`. The previous map (likely from the prior frame)
-        // is dropped; its backing Vec capacity is reclaimed at next
-        // allocation. A future `chess_response_u8_into(.., &mut Vec)`
-        // helper could keep the allocation, but the snapshot-pinned
-        // numerical contract has to stay bit-identical first.
-        buffers.response = chess_response_u8(view.data, view.width, view.height, params);
+        // The response is written into the previous frame's map, keeping
+        // its allocation; the values are those of `chess_response_u8`, bit
+        // for bit.
+        chess_response_u8_into(
+            view.data,
+            view.width,
+            view.height,
+            params,
+            &mut buffers.response,
+        );
         &buffers.response
     }
 

@@ -1,5 +1,6 @@
 //! Corner merging: spatial-grid and naive-fallback implementations.
 use super::Corner;
+use std::collections::HashMap;
 
 #[cfg(feature = "tracing")]
 use tracing::instrument;
@@ -59,10 +60,11 @@ pub fn merge_corners_simple(corners: &mut Vec<Corner>, radius: f32) -> Vec<Corne
     let grid_w = ((max_x - min_x) * inv_cell).floor() as usize + 1;
     let grid_h = ((max_y - min_y) * inv_cell).floor() as usize + 1;
 
-    // Each grid cell stores indices into `out`. `u32` is plenty for
-    // realistic candidate counts and halves the per-cell footprint
-    // vs `usize` on 64-bit targets.
-    let mut grid: Vec<Vec<u32>> = vec![Vec::new(); grid_w * grid_h];
+    // Each occupied grid cell stores indices into `out`. `u32` is plenty
+    // for realistic candidate counts. Only occupied cells are stored: a
+    // dense table of every cell of the cloud's bounding box costs more to
+    // build than the merge itself on a whole frame.
+    let mut grid = OccupiedCells::with_capacity(n);
     let mut out: Vec<Corner> = Vec::with_capacity(n);
 
     let cell_of = |c: &Corner| -> (usize, usize) {
@@ -88,7 +90,7 @@ pub fn merge_corners_simple(corners: &mut Vec<Corner>, radius: f32) -> Vec<Corne
         let mut best_idx = u32::MAX;
         for ny in y0..=y1 {
             for nx in x0..=x1 {
-                for &idx in &grid[ny * grid_w + nx] {
+                for &idx in grid.get(ny * grid_w + nx) {
                     if idx >= best_idx {
                         continue;
                     }
@@ -112,19 +114,43 @@ pub fn merge_corners_simple(corners: &mut Vec<Corner>, radius: f32) -> Vec<Corne
                     let id = i as u32;
                     let old_cell = old_gy * grid_w + old_gx;
                     let new_cell = new_gy * grid_w + new_gx;
-                    grid[old_cell].retain(|&j| j != id);
-                    grid[new_cell].push(id);
+                    grid.remove(old_cell, id);
+                    grid.push(new_cell, id);
                 }
             }
         } else {
             let new_idx = out.len() as u32;
             let (gx, gy) = cell_of(&c);
             out.push(c);
-            grid[gy * grid_w + gx].push(new_idx);
+            grid.push(gy * grid_w + gx, new_idx);
         }
     }
 
     out
+}
+
+/// The corner indices of each occupied cell of the merge grid, in insertion order.
+struct OccupiedCells(HashMap<usize, Vec<u32>>);
+
+impl OccupiedCells {
+    fn with_capacity(n: usize) -> Self {
+        Self(HashMap::with_capacity(n))
+    }
+
+    /// The indices in `cell`, none when it is empty.
+    fn get(&self, cell: usize) -> &[u32] {
+        self.0.get(&cell).map_or(&[], Vec::as_slice)
+    }
+
+    fn push(&mut self, cell: usize, idx: u32) {
+        self.0.entry(cell).or_default().push(idx);
+    }
+
+    fn remove(&mut self, cell: usize, idx: u32) {
+        if let Some(indices) = self.0.get_mut(&cell) {
+            indices.retain(|&j| j != idx);
+        }
+    }
 }
 
 /// Naive O(N²) merge, used only as a fallback when the spatial-grid

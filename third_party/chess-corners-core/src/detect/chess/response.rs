@@ -164,6 +164,24 @@ fn ring_from_params(params: &ChessParams) -> (RingOffsets, &'static [(i32, i32);
     instrument(level = "info", skip(img, params), fields(w, h))
 )]
 pub fn chess_response_u8(img: &[u8], w: usize, h: usize, params: &ChessParams) -> ResponseMap {
+    let mut map = ResponseMap::new(0, 0, Vec::new());
+    chess_response_u8_into(img, w, h, params, &mut map);
+    map
+}
+
+/// [`chess_response_u8`] written into `map`, reusing its allocation: the same
+/// response, bit for bit, without a fresh `w * h` buffer for every image.
+///
+/// # Panics
+///
+/// Panics if `img.len() != w * h`.
+pub fn chess_response_u8_into(
+    img: &[u8],
+    w: usize,
+    h: usize,
+    params: &ChessParams,
+    map: &mut ResponseMap,
+) {
     assert_eq!(
         img.len(),
         w * h,
@@ -171,15 +189,41 @@ pub fn chess_response_u8(img: &[u8], w: usize, h: usize, params: &ChessParams) -
         img.len(),
         w * h,
     );
+    let data = std::mem::take(&mut map.data);
     // rayon path compiled only when feature is enabled
     #[cfg(feature = "rayon")]
     {
-        compute_response_parallel(img, w, h, params)
+        *map = compute_response_parallel(img, w, h, params, data);
     }
     #[cfg(not(feature = "rayon"))]
     {
-        compute_response_sequential(img, w, h, params)
+        *map = compute_response_sequential(img, w, h, params, data);
     }
+}
+
+/// `data` resized to `w * h` with every pixel outside `[x0, x1) x [y0, y1)` set to
+/// zero, as a fresh zeroed buffer would have them; the pixels inside keep what they
+/// held, for the row kernels to overwrite.
+fn response_buffer(
+    mut data: Vec<f32>,
+    w: usize,
+    h: usize,
+    (x0, x1): (usize, usize),
+    (y0, y1): (usize, usize),
+) -> Vec<f32> {
+    data.truncate(w * h);
+    data.resize(w * h, 0.0);
+    if x0 >= x1 || y0 >= y1 || x1 > w || y1 > h {
+        data.fill(0.0);
+        return data;
+    }
+    data[..y0 * w].fill(0.0);
+    data[y1 * w..].fill(0.0);
+    for row in data[y0 * w..y1 * w].chunks_exact_mut(w) {
+        row[..x0].fill(0.0);
+        row[x1..].fill(0.0);
+    }
+    data
 }
 
 /// Always uses the scalar implementation (no rayon, no SIMD); the
@@ -304,11 +348,11 @@ fn compute_response_sequential(
     w: usize,
     h: usize,
     params: &ChessParams,
+    data: Vec<f32>,
 ) -> ResponseMap {
     let (ring_kind, ring) = ring_from_params(params);
     let r = ring_kind.radius() as i32;
 
-    let mut data = vec![0.0f32; w * h];
     #[cfg(not(feature = "simd"))]
     let kernel = RowKernel::detect();
 
@@ -317,6 +361,7 @@ fn compute_response_sequential(
     let y0 = r as usize;
     let x1 = w - r as usize;
     let y1 = h - r as usize;
+    let mut data = response_buffer(data, w, h, (x0, x1), (y0, y1));
 
     for y in y0..y1 {
         let row = &mut data[y * w..(y + 1) * w];
@@ -374,10 +419,15 @@ fn compute_response_sequential_scalar(
 }
 
 #[cfg(feature = "rayon")]
-fn compute_response_parallel(img: &[u8], w: usize, h: usize, params: &ChessParams) -> ResponseMap {
+fn compute_response_parallel(
+    img: &[u8],
+    w: usize,
+    h: usize,
+    params: &ChessParams,
+    data: Vec<f32>,
+) -> ResponseMap {
     let (ring_kind, ring) = ring_from_params(params);
     let r = ring_kind.radius() as i32;
-    let mut data = vec![0.0f32; w * h];
     #[cfg(not(feature = "simd"))]
     let kernel = RowKernel::detect();
 
@@ -386,6 +436,7 @@ fn compute_response_parallel(img: &[u8], w: usize, h: usize, params: &ChessParam
     let y0 = r as usize;
     let x1 = w - r as usize;
     let y1 = h - r as usize;
+    let mut data = response_buffer(data, w, h, (x0, x1), (y0, y1));
 
     // Parallelize over rows. We keep the exact same logic and write
     // each row's slice independently.
@@ -422,8 +473,14 @@ fn compute_response_parallel(img: &[u8], w: usize, h: usize, params: &ChessParam
 // sites that are themselves already gated on `#[cfg(feature = "rayon")]`.
 #[cfg(not(feature = "rayon"))]
 #[cfg_attr(not(feature = "rayon"), allow(dead_code))]
-fn compute_response_parallel(img: &[u8], w: usize, h: usize, params: &ChessParams) -> ResponseMap {
-    compute_response_sequential(img, w, h, params)
+fn compute_response_parallel(
+    img: &[u8],
+    w: usize,
+    h: usize,
+    params: &ChessParams,
+    data: Vec<f32>,
+) -> ResponseMap {
+    compute_response_sequential(img, w, h, params, data)
 }
 
 /// Low-level ChESS response at a single pixel center.
@@ -1030,6 +1087,26 @@ mod tests {
                     assert_eq!(a.to_bits(), b.to_bits(), "{w}x{h} patch ({px}, {py})");
                 }
             }
+        }
+    }
+
+    /// A map reused for image after image, larger and smaller, holds each
+    /// image's response bit for bit as a fresh one does, its border zero.
+    #[test]
+    fn response_into_a_reused_map_matches_a_fresh_one() {
+        let params = ChessParams::default();
+        let mut map = ResponseMap::new(0, 0, Vec::new());
+        let images = test_images();
+        for (w, h, img) in images.iter().chain(images.iter().rev()) {
+            chess_response_u8_into(img, *w, *h, &params, &mut map);
+            let fresh = chess_response_u8(img, *w, *h, &params);
+            assert_eq!((map.width(), map.height()), (*w, *h));
+            assert!(map
+                .data()
+                .iter()
+                .zip(fresh.data())
+                .all(|(a, b)| a.to_bits() == b.to_bits()));
+            assert_eq!(map.data().len(), fresh.data().len());
         }
     }
 

@@ -22,9 +22,13 @@ use calib_targets_charuco::{
     CharucoBoardSpec, CharucoDetector as BoardDetector, CharucoParams, GrayImageView, MarkerLayout,
     builtins::builtin_dictionary,
 };
-use calib_targets_chessboard::{DetectorConfig, default_chess_config, detect_corners};
+use calib_targets_chessboard::default_chess_config;
 use chess_corners::{ImageRefiner, UpscaleConfig};
 use nalgebra::Point2;
+
+mod corner_pass;
+
+use corner_pass::CornerPass;
 
 use super::contained::contained;
 use super::detection::{Detection, TargetDetector};
@@ -45,7 +49,7 @@ type IdCorner = (usize, Point2<f64>);
 pub struct CharucoDetector {
     board: Charuco,
     target: Target,
-    corner_passes: [DetectorConfig; 2],
+    corner_passes: [CornerPass; 2],
     detectors: Vec<BoardDetector>,
 }
 
@@ -74,8 +78,8 @@ impl CharucoDetector {
         // saddle-point refiner places the crate's corners far better than its default.
         let corner_config = default_chess_config().with_refiner(ImageRefiner::saddle_point());
         let corner_passes = [
-            corner_config,
-            corner_config.with_upscale(UpscaleConfig::Fixed(2)),
+            CornerPass::new(corner_config),
+            CornerPass::new(corner_config.with_upscale(UpscaleConfig::Fixed(2))),
         ];
         let detectors = CharucoParams::sweep_for_board(&spec)
             .into_iter()
@@ -120,7 +124,7 @@ impl CharucoDetector {
             if results.iter().any(|(_, _, corners)| corners.len() == count) {
                 break;
             }
-            let chess = detect_corners(&view, pass);
+            let chess = pass.detect(&view);
             for detector in &self.detectors {
                 let Ok(found) = detector.detect_with_corners(&view, &chess) else {
                     continue;
