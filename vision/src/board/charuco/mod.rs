@@ -1,6 +1,7 @@
 //! ChArUco detection: ChESS corners from `chess-corners` (saddle-point refiner; on the
 //! image, then on a copy upscaled twice, which finds boards of small squares and fine
-//! marker bits the first pass breaks up), grid labelling, marker decoding and board
+//! marker bits the first pass breaks up; of the board's region alone when the corners
+//! of the first pass fix it), grid labelling, marker decoding and board
 //! alignment from `calib-targets-charuco` (its three-configuration sweep; the result
 //! with the most markers and corners, completed by the results that agree with it).
 //!
@@ -26,8 +27,11 @@ use calib_targets_chessboard::default_chess_config;
 use chess_corners::{ImageRefiner, UpscaleConfig};
 use nalgebra::Point2;
 
+mod board_region;
 mod corner_pass;
 
+use board_region::Region;
+use calib_targets_chessboard::ChessCorner;
 use corner_pass::CornerPass;
 
 use super::contained::contained;
@@ -104,7 +108,8 @@ impl CharucoDetector {
     /// The board's corners found in `gray`, by ascending id: of the corner passes and
     /// the sweep's configurations, the result that aligned the most markers (then
     /// corners), completed by the others that agree with it; the upscaled pass runs
-    /// only when the first misses corners, and the sweep of a pass stops at the first
+    /// only when the first misses corners, on the board's region when the first pass's
+    /// corners fix it (see [`board_region`]), and the sweep of a pass stops at the first
     /// configuration that gives every corner (the others would find the same corners
     /// at the same positions, and nothing to add).
     fn find_corners(&self, gray: &Gray) -> Option<(Vec<usize>, Vec<Point2<f64>>)> {
@@ -124,7 +129,24 @@ impl CharucoDetector {
             if results.iter().any(|(_, _, corners)| corners.len() == count) {
                 break;
             }
-            let chess = pass.detect(&view);
+            // Past the first pass, the corner search keeps to the board's region
+            // when the corners found so far fix it.
+            let region = results
+                .iter()
+                .max_by_key(|(quality, _, _)| *quality)
+                .and_then(|(_, _, corners)| {
+                    board_region::board_region(
+                        corners,
+                        self.board.cols(),
+                        self.board.rows(),
+                        gray.width,
+                        gray.height,
+                    )
+                });
+            let chess = match region {
+                Some(region) => Self::detect_in(pass, gray, region),
+                None => pass.detect(&view),
+            };
             for detector in &self.detectors {
                 let Ok(found) = detector.detect_with_corners(&view, &chess) else {
                     continue;
@@ -183,6 +205,24 @@ impl CharucoDetector {
             }
         }
         Some(corners.into_iter().unzip())
+    }
+
+    /// The corners `pass` finds in `region` of `gray`, in the image's coordinates.
+    fn detect_in(pass: &CornerPass, gray: &Gray, region: Region) -> Vec<ChessCorner> {
+        let Some(data) = region.crop(&gray.data, gray.width) else {
+            return Vec::new();
+        };
+        let view = GrayImageView {
+            width: region.x1 - region.x0,
+            height: region.y1 - region.y0,
+            data: &data,
+        };
+        let mut corners = pass.detect(&view);
+        for corner in &mut corners {
+            corner.position.x += region.x0 as f32;
+            corner.position.y += region.y0 as f32;
+        }
+        corners
     }
 
     /// Shortest distance from each corner to a detected neighbour on the board's
