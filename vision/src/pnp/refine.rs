@@ -115,12 +115,8 @@ fn residuals_at(
         .iter()
         .zip(&correspondences.pixels)
         .map(|(point, pixel)| {
-            let in_camera = Point3::from(rotation * point.coords + translation);
-            if in_camera.z <= 0.0 {
-                return None;
-            }
             camera
-                .project(&in_camera)
+                .project(&Point3::from(rotation * point.coords + translation))
                 .map(|projected| projected - pixel)
         })
         .collect::<Option<Vec<_>>>()?;

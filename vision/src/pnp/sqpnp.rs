@@ -83,7 +83,8 @@ const SQP_MAX_TANGENT_STEP: f64 = 1.0;
 const SQP_INITIAL_DAMPING: f64 = 1e-9;
 /// Refused steps in a row after which the run is abandoned.
 const SQP_MAX_REFUSALS: usize = 30;
-/// Rise of `r^T Omega r` a step may cause, relative to the scale of `Omega`: rounding, so that converged iterations are not stopped by noise.
+/// Rise of `r^T Omega r` a step may cause, relative to the scale of `Omega`: rounding,
+/// so that converged iterations are not stopped by noise.
 const SQP_OBJECTIVE_SLACK: f64 = 1e-12;
 /// Two minima whose rotation matrices differ by less than this (squared Frobenius norm,
 /// about 1e-4 rad) are the same minimum.
@@ -370,8 +371,9 @@ impl<'a> Problem<'a> {
     /// decomposition decides.
     fn least_eigenvector(&self) -> Option<Vector9> {
         let trace = self.omega.trace();
-        (self.omega - Matrix9::identity() * (RANK_TOLERANCE * trace)).cholesky()?;
-        let factor = self.omega.cholesky()?;
+        // The shifted matrix has the same eigenvectors, and its factor serves as both
+        // the test and the inverse iteration's solver.
+        let factor = (self.omega - Matrix9::identity() * (RANK_TOLERANCE * trace)).cholesky()?;
         let mut x = Vector9::repeat(1.0 / 3.0);
         for _ in 0..INVERSE_ITERATIONS {
             x = factor.solve(&x);

@@ -392,8 +392,6 @@ fn match_band_kernel(pair: &Pair<'_>, first: usize, out: &mut [f32], buffers: &m
     }
 }
 
-/// The disparity index of the least cost and its sub-pixel offset, unless a
-/// disparity more than one index away costs at most `uniqueness_ratio` percent more.
 /// Makes `buffer` `len` copies of `value`, keeping its allocation.
 #[inline(always)]
 fn refill<T: Clone>(buffer: &mut Vec<T>, len: usize, value: T) {
@@ -413,6 +411,8 @@ fn smallest(values: &[u32]) -> u32 {
     values.iter().fold(u32::MAX, |m, &c| m.min(c))
 }
 
+/// The disparity index of the least cost and its sub-pixel offset, unless a
+/// disparity more than one index away costs at most `uniqueness_ratio` percent more.
 #[inline(always)]
 fn choose(costs: &[u32], uniqueness_ratio: u32) -> Option<(usize, f32)> {
     let least = smallest(costs);
