@@ -1,14 +1,17 @@
 #!/usr/bin/env bash
-# Every speed comparison with OpenCV behind the README's speed tables, in one run: the
-# release builds they time, then each side-by-side script in turn with the arguments the
-# README gives for it, its wall time after it. Run it on a machine with nothing else
-# running (the scripts alternate the two sides in rounds, so a change of load weighs on
-# both, but all-thread figures need the cores free) and compare ratios, not times.
+# The speed comparisons with OpenCV behind the README's speed tables (remap and maps,
+# `stereocal rectify` on a bag, calibration, ChArUco, PnP, decoding, stereo matching),
+# in one run: the release builds they time, then each side-by-side script in turn with
+# the arguments the README gives for it, its wall time after it. A script that fails
+# stops the run with its status. Run it on a machine with nothing else running (the
+# scripts alternate the two sides in rounds, so a change of load weighs on both, but
+# all-thread figures need the cores free) and compare ratios, not times.
 #
 # Usage: interop/bench_all.sh [LOG]   (LOG, default target/bench_all.log, gets a copy of the output)
 set -euo pipefail
+log=$(realpath -m "${1:-$(dirname "$0")/../target/bench_all.log}")
 cd "$(dirname "$0")/.."
-log=${1:-target/bench_all.log}
+mkdir -p "$(dirname "$log")"
 py=.venv/bin/python
 
 {
