@@ -16,6 +16,7 @@ use std::io::Cursor;
 use stereocal_msgs::RosMessage;
 use stereocal_msgs::cdr;
 use stereocal_msgs::sensor_msgs::{CompressedImage, Image};
+use stereocal_vision::channel_order::swap_red_blue;
 use thiserror::Error;
 use zune_jpeg::JpegDecoder;
 use zune_jpeg::zune_core::bytestream::ZCursor;
@@ -350,12 +351,6 @@ fn decode_png(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compre
 }
 
 /// Swaps the first and third channel of every pixel.
-fn swap_red_blue(pixels: &mut [u8], channels: usize) {
-    for pixel in pixels.chunks_exact_mut(channels) {
-        pixel.swap(0, 2);
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -6,6 +6,7 @@
 pub mod board;
 pub mod calib;
 pub mod camera;
+pub mod channel_order;
 pub mod geometry;
 pub mod handeye;
 pub mod image;
