@@ -69,8 +69,9 @@ pub enum NodeCommand {
     },
 }
 
-/// Runs the node until SIGINT/SIGTERM.
+/// Runs the node until SIGINT/SIGTERM, with the parallel pool sized for nodes.
 pub fn run(command: NodeCommand) -> anyhow::Result<()> {
+    size_parallel_pool();
     match command {
         NodeCommand::Rectify { args } => crate::rectify::node::run(args),
         NodeCommand::Calibrate { args } => crate::calibrate::node::run(args),
@@ -83,12 +84,32 @@ pub fn run(command: NodeCommand) -> anyhow::Result<()> {
     }
 }
 
-/// The `main` of node executable `name`: runs `node` with the process's command line
-/// (without the program name) and exits 0, or prints why it stopped and exits 1.
+/// Sizes the process's pool for parallel work (remap rows, stereo sweeps, detection)
+/// for nodes: one thread more than the machine has cores, unless `RAYON_NUM_THREADS`
+/// says otherwise. A node's parallel work shares the cores with the threads that
+/// receive, queue and send its messages, and a pool of exactly one thread per core
+/// waits for whichever of its threads those interrupt: the composed rectify pair at
+/// 1920x1080 rgb8 on two cores took p90 10.2-10.9 ms with two pool threads, 5.8-6.9 ms
+/// with three or four. Does nothing once the pool exists.
+pub fn size_parallel_pool() {
+    if std::env::var_os("RAYON_NUM_THREADS").is_some() {
+        return;
+    }
+    let cores = std::thread::available_parallelism().map_or(1, usize::from);
+    // The pool already exists when something ran in parallel before: keep it.
+    let _ = rayon::ThreadPoolBuilder::new()
+        .num_threads(cores + 1)
+        .build_global();
+}
+
+/// The `main` of node executable `name`: sizes the parallel pool for nodes, runs
+/// `node` with the process's command line (without the program name) and exits 0, or
+/// prints why it stopped and exits 1.
 pub fn executable_main(
     name: &str,
     node: impl FnOnce(std::iter::Skip<std::env::Args>) -> anyhow::Result<()>,
 ) -> ExitCode {
+    size_parallel_pool();
     match node(std::env::args().skip(1)) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -370,6 +370,8 @@ fn measure(args: &Args, domain: u16) -> anyhow::Result<()> {
 
 fn main() -> ExitCode {
     let args = Args::parse();
+    // The measured nodes run with the parallel pool their executables have.
+    stereocal::cli::node::size_parallel_pool();
     let result = (|| -> anyhow::Result<()> {
         if args.subscriber {
             return subscriber(args.domain.unwrap_or(0));
