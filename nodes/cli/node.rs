@@ -87,10 +87,11 @@ pub fn run(command: NodeCommand) -> anyhow::Result<()> {
 /// Sizes the process's pool for parallel work (remap rows, stereo sweeps, detection)
 /// for nodes: one thread more than the machine has cores, unless `RAYON_NUM_THREADS`
 /// says otherwise. A node's parallel work shares the cores with the threads that
-/// receive, queue and send its messages, and a pool of exactly one thread per core
-/// waits for whichever of its threads those interrupt: the composed rectify pair at
-/// 1920x1080 rgb8 on two cores took p90 10.2-10.9 ms with two pool threads, 5.8-6.9 ms
-/// with three or four. Does nothing once the pool exists.
+/// receive, queue and send its messages; with exactly one pool thread per core, a
+/// parallel loop seems to wait whenever those threads interrupt one of its threads.
+/// Measured: the composed rectify pair at 1920x1080 rgb8 on two cores took p90
+/// 10.2-10.9 ms with two pool threads, 5.8-7.1 ms with three, four or six. Does nothing
+/// once the pool exists.
 pub fn size_parallel_pool() {
     if std::env::var_os("RAYON_NUM_THREADS").is_some() {
         return;
