@@ -11,7 +11,8 @@ sensor noise and a right camera 4 % brighter plus 2 grey levels. Both matchers s
 OpenCV: `cv2.StereoSGBM_create` in its default mode (five paths) and MODE_SGBM_3WAY, at
 block sizes 3 and 5, with the P1 = 8 * bs^2 and P2 = 32 * bs^2 its documentation
 recommends for one channel, uniquenessRatio 10, disp12MaxDiff 1, speckleWindowSize 100,
-speckleRange 2. stereocal: `SgmParams` defaults (`--paths` to change the path count).
+speckleRange 2. stereocal: `SgmParams` defaults (`--paths` to change the path count,
+`--refine-radius` the refinement's window).
 
 Scores, over the pixels the right camera also sees (non-occluded), per frame then
 averaged over frames:
@@ -36,8 +37,8 @@ percentile of stereocal's disparity error dd.
 Usage: .venv/bin/python interop/bench_depth_opencv.py
        [--stereocal target/release/stereocal]
        [--timing target/release/examples/stereo_timing] [--frames 3] [--repeats 5]
-       [--rounds 2] [--paths eight] [--check-speed] [--skip-walls] [--skip-720p]
-       [--skip-bm | --bm-only]
+       [--rounds 2] [--paths eight] [--refine-radius 4] [--check-speed] [--skip-walls]
+       [--skip-720p] [--skip-bm | --bm-only]
 
 Block matching: stereocal's `BlockMatcher` and cv2.StereoBM with stereo_image_proc's
 defaults (window 15, prefilter_cap 31, texture_threshold 10, uniqueness_ratio 15,
@@ -145,10 +146,10 @@ def run_ours(timing, frames, work, params, repeats, threads, algorithm="sgm"):
     return disparities, statistics.median(p["median_ms"] for p in report["pairs"])
 
 
-def default_params(paths, disparities):
+def default_params(paths, disparities, refine_radius=4):
     return {"min_disparity": 0, "disparity_range": disparities, "paths": paths, "p1": 10,
             "p2": 120, "uniqueness_ratio": 5, "disp12_max_diff": 1, "speckle_size": 100,
-            "speckle_range": 2.0, "refine_radius": 4}
+            "speckle_range": 2.0, "refine_radius": refine_radius}
 
 
 def mean_scores(scores):
@@ -158,7 +159,7 @@ def mean_scores(scores):
 def compare(name, frames, args, work):
     print(f"\n== {name}: {len(frames)} pairs of {frames[0]['left'].shape[1]}x{frames[0]['left'].shape[0]}, "
           f"{RANGE} disparities")
-    params = default_params(args.paths, RANGE)
+    params = default_params(args.paths, RANGE, args.refine_radius)
     configs = {f"OpenCV {label} bs{block}": opencv_matcher(mode, block, RANGE)
                for label, mode in (("SGBM", cv2.STEREO_SGBM_MODE_SGBM),
                                    ("3WAY", cv2.STEREO_SGBM_MODE_SGBM_3WAY))
@@ -248,7 +249,7 @@ def compare_bm(name, frames, args, work):
 
 def walls(args, work):
     truth, frames = synth(args.stereocal, work / "walls", ["--scene", "depth-walls"])
-    params = default_params(args.paths, WALL_RANGE)
+    params = default_params(args.paths, WALL_RANGE, args.refine_radius)
     ours, _ = run_ours(args.timing, frames, work, params, 1, 0)
     focal, baseline = truth["focal"], truth["baseline"]
     print(f"\n== depth against distance: a textured wall, f {focal} px, baseline {baseline} m, {WALL_RANGE} disparities")
@@ -278,6 +279,8 @@ def main():
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--rounds", type=int, default=2)
     parser.add_argument("--paths", default="eight", choices=["four", "five", "eight"])
+    parser.add_argument("--refine-radius", type=int, default=4,
+                        help="SgmParams::refine_radius; 0 keeps the parabola's vertex")
     parser.add_argument("--check-speed", action="store_true")
     parser.add_argument("--skip-walls", action="store_true")
     parser.add_argument("--skip-720p", action="store_true")
