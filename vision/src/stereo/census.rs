@@ -72,12 +72,12 @@ fn census_row_body<T: Copy + PartialOrd>(window_rows: &[T], descriptors: &mut [u
 
 dispatched! {
     /// Census descriptors of a row of 8-bit samples.
-    fn census_row_u8(window_rows: &[u8], descriptors: &mut [u64]) = census_row_body::<u8>;
+    fn census_row_u8(window_rows: &[u8], descriptors: &mut [u64]) = census_row_body::<u8>; avx512
 }
 
 dispatched! {
     /// Census descriptors of a row of 16-bit samples.
-    fn census_row_u16(window_rows: &[u16], descriptors: &mut [u64]) = census_row_body::<u16>;
+    fn census_row_u16(window_rows: &[u16], descriptors: &mut [u64]) = census_row_body::<u16>; avx512
 }
 
 impl Sample for u8 {
@@ -113,6 +113,24 @@ mod tests {
         assert_eq!(out[7 * width + 10], 0);
         let set: u32 = out.iter().map(|d| d.count_ones()).sum();
         assert_eq!(set, BITS);
+    }
+
+    #[test]
+    fn the_dispatched_copies_match_the_portable_body() {
+        let width = 77;
+        let padded = width + WINDOW_WIDTH - 1;
+        let rows: Vec<u16> = (0..padded * WINDOW_HEIGHT)
+            .map(|i| ((i * 7919) % 1009) as u16)
+            .collect();
+        let mut fast = vec![0; width];
+        let mut portable = vec![0; width];
+        census_row_u16(&rows, &mut fast);
+        census_row_body(&rows, &mut portable);
+        assert_eq!(fast, portable);
+        let rows: Vec<u8> = rows.iter().map(|&v| (v % 251) as u8).collect();
+        census_row_u8(&rows, &mut fast);
+        census_row_body(&rows, &mut portable);
+        assert_eq!(fast, portable);
     }
 
     #[test]

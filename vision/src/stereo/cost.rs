@@ -36,7 +36,7 @@ fn cost_row_body(left: &[u64], right: &[u64], min_disparity: i32, range: usize, 
 
 dispatched! {
     /// Fills one row of the cost volume (see `cost_row_body`).
-    fn cost_row(left: &[u64], right: &[u64], min_disparity: i32, range: usize, costs: &mut [u8]) = cost_row_body;
+    fn cost_row(left: &[u64], right: &[u64], min_disparity: i32, range: usize, costs: &mut [u8]) = cost_row_body; avx512
 }
 
 #[cfg(test)]
@@ -55,5 +55,26 @@ mod tests {
         assert_eq!(&costs[9..12], &[OUTSIDE, 1, 2]);
         // x = 2: d = -1 -> right 3, d = 0 -> right 2, d = 1 -> right 1.
         assert_eq!(&costs[6..9], &[4, 1, 0]);
+    }
+
+    #[test]
+    fn the_dispatched_copy_matches_the_portable_body() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state & ((1 << super::BITS) - 1)
+        };
+        let width = 203;
+        let left: Vec<u64> = (0..width).map(|_| next()).collect();
+        let right: Vec<u64> = (0..width).map(|_| next()).collect();
+        for (min_disparity, range) in [(0, 64), (-5, 48), (17, 16)] {
+            let mut fast = vec![0u8; width * range];
+            let mut portable = vec![0u8; width * range];
+            cost_row(&left, &right, min_disparity, range, &mut fast);
+            cost_row_body(&left, &right, min_disparity, range, &mut portable);
+            assert_eq!(fast, portable, "min {min_disparity}, range {range}");
+        }
     }
 }
