@@ -35,7 +35,7 @@ fn cost_row_body(left: &[u64], right: &[u64], min_disparity: i32, range: usize, 
 }
 
 dispatched! {
-    /// Fills one row of the cost volume (see `cost_row_body`).
+    /// Fills one row of matching costs (see `cost_row_body`).
     fn cost_row(left: &[u64], right: &[u64], min_disparity: i32, range: usize, costs: &mut [u8]) = cost_row_body; avx512
 }
 

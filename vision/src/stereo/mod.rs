@@ -117,7 +117,8 @@ pub enum StereoError {
         /// Height.
         height: usize,
     },
-    /// The pair is too large to match: its cost volume would exceed the limit.
+    /// The pair is too large to match: its matching costs (pixels times disparities)
+    /// would exceed the limit.
     #[error(
         "a {width}x{height} pair with {range} disparities has more matching costs than the limit of {limit}: use smaller images or fewer disparities"
     )]

@@ -31,8 +31,10 @@ use crate::image::{Image, Samples};
 /// threads busy. With five paths one downward sweep chooses as it goes. Within a
 /// sweep, the image is swept one row at a time as a pipeline: while one thread
 /// aggregates a row along its horizontal path, others aggregate the row before along
-/// the vertical paths and choose the disparities of the row before that. The result
-/// does not depend on the number of threads.
+/// the vertical paths, compute the matching costs of the row after and choose the
+/// disparities of the row before that. The costs are never stored
+/// for the whole image: each sweep keeps three rows of them. The result does not
+/// depend on the number of threads.
 ///
 /// The matcher keeps its buffers between calls: matching a stream of pairs of one size
 /// allocates only for the first.
@@ -40,7 +42,6 @@ pub struct SemiGlobalMatcher {
     params: SgmParams,
     census_left: Vec<u64>,
     census_right: Vec<u64>,
-    costs: Vec<u8>,
     /// Sums of each sweep's paths over the first half of its rows (two-sweep modes).
     sums: AlignedBuffer,
     /// A row of zero sums, the base of the first paths.
@@ -54,9 +55,9 @@ pub struct SemiGlobalMatcher {
     first_estimates: Vec<f32>,
 }
 
-/// Largest number of matching costs (pixels times disparities) of a pair: the cost
-/// volume takes one byte per cost and the aggregated sums two, so about 1.6 GB at the
-/// limit (1920x1080 with 256 disparities is within it).
+/// Largest number of matching costs (pixels times disparities) of a pair: the
+/// aggregated sums take two bytes per cost, so about 1 GB at the limit (1920x1080 with
+/// 256 disparities is within it).
 pub const MAX_COST_CELLS: usize = 1 << 29;
 
 /// Gauss-Newton steps of the sub-pixel refinement: the first lands within a few
@@ -148,6 +149,9 @@ struct Sweeper {
     horizontal_scratch: AlignedBuffer,
     right_matches: Vec<i32>,
     right_costs: Vec<u16>,
+    /// Matching costs of the rows being swept, computed as the sweep reaches them (see
+    /// [`cost_ring`]).
+    cost_rows: [Vec<u8>; 3],
 }
 
 /// What a sweep does at each row.
@@ -162,7 +166,8 @@ struct SweepPlan {
 #[derive(Clone, Copy)]
 struct Frame<'a> {
     params: &'a SgmParams,
-    costs: &'a [u8],
+    census_left: &'a [u64],
+    census_right: &'a [u64],
     zeros: &'a [u16],
     width: usize,
 }
@@ -188,14 +193,17 @@ impl Sweeper {
         self.horizontal_scratch.resize(2 * slot_len(range));
         self.right_matches.resize(width, 0);
         self.right_costs.resize(width, 0);
+        for row in &mut self.cost_rows {
+            row.resize(width * range, 0);
+        }
         self.sweep.reset(width, range);
     }
 
     /// Sweeps `rows` (down, or up when `plan.upward`), going on from the row before
     /// them (from the image's border after [`Self::reset`]), as a pipeline: at step
     /// `i` the horizontal paths of the `i`-th row, the vertical paths of the row
-    /// before and, when choosing, the disparities of the row before that, each on its
-    /// own thread.
+    /// before, the matching costs of the row after and, when choosing, the disparities
+    /// of the row before that, each on its own thread.
     fn run(&mut self, frame: Frame<'_>, plan: SweepPlan, rows: Range<usize>, output: Output<'_>) {
         let params = frame.params;
         let range = params.disparity_range;
@@ -212,6 +220,19 @@ impl Sweeper {
             Output::Store(sums) => (Some(sums), None, None),
             Output::Choose { other, disparities } => (None, other, Some(disparities)),
         };
+        let costs_of = |i: usize, costs: &mut [u8]| {
+            let y = rows.start + i;
+            cost_row(
+                &frame.census_left[y * width..(y + 1) * width],
+                &frame.census_right[y * width..(y + 1) * width],
+                params.min_disparity,
+                range,
+                costs,
+            );
+        };
+        if count > 0 {
+            costs_of(row_of(0), &mut self.cost_rows[0]);
+        }
         let steps = if disparities.is_some() {
             count + 2
         } else {
@@ -221,6 +242,9 @@ impl Sweeper {
             let horizontal_i = (step < count).then(|| row_of(step));
             let vertical_i = (1..=count).contains(&step).then(|| row_of(step - 1));
             let choose_i = (step >= 2).then(|| row_of(step - 2));
+            let next_i = (step + 1 < count).then(|| row_of(step + 1));
+            let (horizontal_costs, vertical_costs, next_costs) =
+                cost_ring(&mut self.cost_rows, step);
 
             let [h0, h1] = &mut self.horizontal;
             let (horizontal, horizontal_before) = if step % 2 == 0 {
@@ -245,19 +269,15 @@ impl Sweeper {
                 (Some(sums), Some(i)) => &mut sums[i * row_len..(i + 1) * row_len],
                 _ => finishing,
             };
-            let row_costs = |i: usize| {
-                let y = rows.start + i;
-                &frame.costs[y * row_len..(y + 1) * row_len]
-            };
             let sweep = &mut self.sweep;
             let scratch = self.horizontal_scratch.as_mut_slice();
             let (right_matches, right_costs) = (&mut self.right_matches, &mut self.right_costs);
             let choose_row_of = choose_i.zip(disparities.as_deref_mut());
 
             let aggregate_horizontal = || {
-                if let Some(i) = horizontal_i {
+                if horizontal_i.is_some() {
                     horizontal_row(
-                        row_costs(i),
+                        horizontal_costs,
                         range,
                         penalties,
                         plan.horizontal,
@@ -268,9 +288,9 @@ impl Sweeper {
                 }
             };
             let aggregate_vertical = || {
-                if let Some(i) = vertical_i {
+                if vertical_i.is_some() {
                     sweep.row(
-                        row_costs(i),
+                        vertical_costs,
                         horizontal_before,
                         vertical_out,
                         range,
@@ -296,10 +316,31 @@ impl Sweeper {
                     }
                 }
             };
+            let compute_next_costs = || {
+                if let Some(i) = next_i {
+                    costs_of(i, next_costs);
+                }
+            };
             rayon::join(aggregate_horizontal, || {
-                rayon::join(aggregate_vertical, choose)
+                rayon::join(aggregate_vertical, || {
+                    rayon::join(compute_next_costs, choose)
+                })
             });
         }
+    }
+}
+
+/// The three cost rows of sweep step `step`: the row whose horizontal paths it
+/// aggregates (`row_of(step)`), the row before, whose vertical paths it aggregates, and
+/// the row after, whose costs it computes. Each row's costs are computed one step
+/// before its horizontal paths need them and kept one step after, for its vertical
+/// paths.
+fn cost_ring(rows: &mut [Vec<u8>; 3], step: usize) -> (&[u8], &[u8], &mut [u8]) {
+    let [a, b, c] = rows;
+    match step % 3 {
+        0 => (a, c, b),
+        1 => (b, a, c),
+        _ => (c, b, a),
     }
 }
 
@@ -310,7 +351,6 @@ impl SemiGlobalMatcher {
             params,
             census_left: Vec::new(),
             census_right: Vec::new(),
-            costs: Vec::new(),
             sums: AlignedBuffer::default(),
             zeros: AlignedBuffer::default(),
             sweepers: Default::default(),
@@ -384,13 +424,6 @@ impl SemiGlobalMatcher {
         }
 
         let min_disparity = self.params.min_disparity;
-        self.costs.resize(pixels * range, 0);
-        self.costs
-            .par_chunks_mut(width * range)
-            .zip(self.census_left.par_chunks(width))
-            .zip(self.census_right.par_chunks(width))
-            .for_each(|((costs, l), r)| cost_row(l, r, min_disparity, range, costs));
-
         let row_len = width * range;
         self.zeros.resize(row_len);
         self.zeros.as_mut_slice().fill(0);
@@ -401,7 +434,8 @@ impl SemiGlobalMatcher {
 
         let frame = Frame {
             params: &self.params,
-            costs: &self.costs,
+            census_left: &self.census_left,
+            census_right: &self.census_right,
             zeros: self.zeros.as_slice(),
             width,
         };
