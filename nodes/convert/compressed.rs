@@ -350,7 +350,6 @@ fn decode_png(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compre
     Ok((wanted, width, height, pixels))
 }
 
-/// Swaps the first and third channel of every pixel.
 #[cfg(test)]
 mod tests {
     use super::*;

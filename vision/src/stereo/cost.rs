@@ -59,16 +59,12 @@ mod tests {
 
     #[test]
     fn the_dispatched_copy_matches_the_portable_body() {
-        let mut state = 0x9e37_79b9_7f4a_7c15u64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state & ((1 << super::BITS) - 1)
-        };
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut descriptor = || rng.random_range(0..1u64 << super::BITS);
         let width = 203;
-        let left: Vec<u64> = (0..width).map(|_| next()).collect();
-        let right: Vec<u64> = (0..width).map(|_| next()).collect();
+        let left: Vec<u64> = (0..width).map(|_| descriptor()).collect();
+        let right: Vec<u64> = (0..width).map(|_| descriptor()).collect();
         for (min_disparity, range) in [(0, 64), (-5, 48), (17, 16)] {
             let mut fast = vec![0u8; width * range];
             let mut portable = vec![0u8; width * range];

@@ -254,19 +254,14 @@ mod tests {
 
     #[test]
     fn the_dispatched_pick_matches_the_portable_one() {
-        let mut state = 0x2545_f491_4f6c_dd1du64;
-        let mut next = move || {
-            state ^= state << 13;
-            state ^= state >> 7;
-            state ^= state << 17;
-            state
-        };
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
         let (width, range) = (61, 48);
         for round in 0..50 {
             // Few distinct values, so that ties and minima next to each other are common.
             let levels = if round % 2 == 0 { 5 } else { 4000 };
             let sums: Vec<u16> = (0..width * range)
-                .map(|_| (next() % levels) as u16 * 3)
+                .map(|_| rng.random_range(0..levels) * 3)
                 .collect();
             let run = |choose: ChooseRow| {
                 let mut disparities = vec![0.0; width];

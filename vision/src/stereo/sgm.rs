@@ -32,9 +32,9 @@ use crate::image::{Image, Samples};
 /// sweep, the image is swept one row at a time as a pipeline: while one thread
 /// aggregates a row along its horizontal path, others aggregate the row before along
 /// the vertical paths, compute the matching costs of the row after and choose the
-/// disparities of the row before that. The costs are never stored
-/// for the whole image: each sweep keeps three rows of them. The result does not
-/// depend on the number of threads.
+/// disparities of the row before that. The costs are never stored for the whole image:
+/// each sweep keeps three rows of them. The result does not depend on the number of
+/// threads.
 ///
 /// The matcher keeps its buffers between calls: matching a stream of pairs of one size
 /// allocates only for the first.
