@@ -6,6 +6,7 @@
 
 use std::arch::x86_64::*;
 
+use super::avx512;
 use super::scalar::{self, PREFETCH_AHEAD, Source, prefetch};
 use crate::rectify::map::{INTER_BITS, INTER_TAB_SIZE};
 
@@ -17,6 +18,10 @@ pub(super) fn bilinear_row_c1(
     dst: &mut [u8],
 ) {
     match Geometry::new::<1>(&src) {
+        // SAFETY: AVX2 (checked by `Geometry::new`) and AVX-512 are present.
+        Some(geometry) if avx512::available() => unsafe {
+            avx512::bilinear_c1(src, geometry, xy, fraction, dst)
+        },
         // SAFETY: AVX2 is present (checked by `Geometry::new`).
         Some(geometry) => unsafe { bilinear_c1(src, geometry, xy, fraction, dst) },
         None => scalar::bilinear_row::<u8, 1>(src, xy, fraction, dst),
@@ -31,6 +36,10 @@ pub(super) fn bilinear_row_c3(
     dst: &mut [u8],
 ) {
     match Geometry::new::<3>(&src) {
+        // SAFETY: AVX2 (checked by `Geometry::new`) and AVX-512 are present.
+        Some(geometry) if avx512::available() => unsafe {
+            avx512::bilinear_c3(src, geometry, xy, fraction, dst)
+        },
         // SAFETY: AVX2 is present (checked by `Geometry::new`).
         Some(geometry) => unsafe { bilinear_c3(src, geometry, xy, fraction, dst) },
         None => scalar::bilinear_row::<u8, 3>(src, xy, fraction, dst),
@@ -41,7 +50,7 @@ pub(super) fn bilinear_row_c3(
 /// `0 <= y <= max_y` and their byte offset `(y * width + x) * CN` must not exceed
 /// `max_offset`, so that every byte a vector block reads lies inside the source.
 #[derive(Clone, Copy)]
-struct Geometry {
+pub(super) struct Geometry {
     width: i32,
     max_x: i16,
     max_y: i16,
@@ -76,13 +85,18 @@ impl Geometry {
 
 impl Geometry {
     /// `[max_x, max_y]` as a pair of i16, the layout of a map entry.
-    fn limits(self) -> i32 {
+    pub(super) fn limits(self) -> i32 {
         (i32::from(self.max_y) << 16) | i32::from(self.max_x)
     }
 
     /// `[1, width]` as a pair of i16: multiply-adding a map entry gives `x + y * width`.
-    fn row_step(self) -> i32 {
+    pub(super) fn row_step(self) -> i32 {
         (self.width << 16) | 1
+    }
+
+    /// The largest byte offset of a neighbourhood's top-left sample.
+    pub(super) fn max_offset(self) -> i32 {
+        self.max_offset
     }
 }
 
@@ -347,13 +361,57 @@ mod tests {
         }
     }
 
+    /// The AVX2 mono kernel alone, where the CPU also has AVX-512.
+    fn avx2_row_c1(src: Source<'_, u8>, xy: &[[i16; 2]], fraction: &[u16], dst: &mut [u8]) {
+        match Geometry::new::<1>(&src) {
+            // SAFETY: AVX2 is present (checked by `Geometry::new`).
+            Some(geometry) => unsafe { bilinear_c1(src, geometry, xy, fraction, dst) },
+            None => scalar::bilinear_row::<u8, 1>(src, xy, fraction, dst),
+        }
+    }
+
+    /// The AVX-512 mono kernel alone, where the CPU has it.
+    fn avx512_row_c1(src: Source<'_, u8>, xy: &[[i16; 2]], fraction: &[u16], dst: &mut [u8]) {
+        match Geometry::new::<1>(&src) {
+            // SAFETY: AVX2 (checked by `Geometry::new`) and AVX-512 are present.
+            Some(geometry) if avx512::available() => unsafe {
+                avx512::bilinear_c1(src, geometry, xy, fraction, dst)
+            },
+            _ => scalar::bilinear_row::<u8, 1>(src, xy, fraction, dst),
+        }
+    }
+
     #[test]
     fn mono_matches_the_portable_kernel() {
+        check::<1>(avx2_row_c1);
+        check::<1>(avx512_row_c1);
         check::<1>(bilinear_row_c1);
+    }
+
+    /// The AVX2 three-channel kernel alone, where the CPU also has AVX-512.
+    fn avx2_row_c3(src: Source<'_, u8>, xy: &[[i16; 2]], fraction: &[u16], dst: &mut [u8]) {
+        match Geometry::new::<3>(&src) {
+            // SAFETY: AVX2 is present (checked by `Geometry::new`).
+            Some(geometry) => unsafe { bilinear_c3(src, geometry, xy, fraction, dst) },
+            None => scalar::bilinear_row::<u8, 3>(src, xy, fraction, dst),
+        }
+    }
+
+    /// The AVX-512 three-channel kernel alone, where the CPU has it.
+    fn avx512_row_c3(src: Source<'_, u8>, xy: &[[i16; 2]], fraction: &[u16], dst: &mut [u8]) {
+        match Geometry::new::<3>(&src) {
+            // SAFETY: AVX2 (checked by `Geometry::new`) and AVX-512 are present.
+            Some(geometry) if avx512::available() => unsafe {
+                avx512::bilinear_c3(src, geometry, xy, fraction, dst)
+            },
+            _ => scalar::bilinear_row::<u8, 3>(src, xy, fraction, dst),
+        }
     }
 
     #[test]
     fn three_channels_match_the_portable_kernel() {
+        check::<3>(avx2_row_c3);
+        check::<3>(avx512_row_c3);
         check::<3>(bilinear_row_c3);
     }
 }
