@@ -4,8 +4,9 @@
 //! rectifying its side of the bundled stereo bag exactly as the rectify stage does,
 //! logging under its own logger name, and both stop on one SIGTERM. In a composition
 //! where calibrate_node takes rectify_node's output, the frames reach it by reference
-//! and never go over DDS while nothing outside subscribes them. A composition naming an
-//! unknown node is refused at start-up.
+//! and never go over DDS while nothing outside subscribes them; once a reader outside
+//! subscribes, DDS sends them to that reader only, not to calibrate_node as well. A
+//! composition naming an unknown node is refused at start-up.
 
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -159,12 +160,20 @@ fn a_composition_naming_an_unknown_node_is_refused_at_start_up() {
     );
 }
 
-#[test]
-fn a_rectified_frame_reaches_a_node_of_the_same_process_without_dds() {
+/// What the composition's nodes logged about their messages: rectify_node's shutdown
+/// summary and calibrate_node's.
+struct Summaries {
+    rectify: String,
+    calibrate: String,
+}
+
+/// Runs rectify_node and calibrate_node in one process, calibrate_node judging what
+/// rectify_node publishes, until calibrate_node has judged three frames; with
+/// `outside_reader`, a subscriber of this test's process also reads `image_rect` until
+/// it has received one over DDS.
+fn rectify_into_calibrate(outside_reader: bool) -> Summaries {
     let domain = DomainLease::for_test().expect("a ROS domain");
     let dir = tempfile::tempdir().expect("temp dir");
-    // calibrate_node judges what rectify_node publishes, in the same process; nothing
-    // outside subscribes image_rect.
     let composition = dir.path().join("composition.yaml");
     std::fs::write(
         &composition,
@@ -193,15 +202,21 @@ fn a_rectified_frame_reaches_a_node_of_the_same_process_without_dds() {
             qos::reliable(10).durability(ros2_client::qos::Durability::TransientLocal),
         )
         .expect("status subscription");
+    let rectified = outside_reader.then(|| {
+        peer.subscription::<Image>("/stereo/left/image_rect", qos::reliable(5))
+            .expect("image_rect subscription")
+    });
 
     const JUDGED: u64 = 3;
     let deadline = Instant::now() + Duration::from_secs(60);
-    let mut received = 0;
+    let mut judged = 0;
+    let mut outside = 0;
     let mut sent = 0u32;
-    while received < JUDGED {
+    while judged < JUDGED || (outside_reader && outside == 0) {
         assert!(
             Instant::now() < deadline,
-            "calibrate_node received {received} rectified frames in 60 s:\n{}",
+            "in 60 s calibrate_node received {judged} rectified frames, the outside \
+             subscriber {outside}:\n{}",
             process.logs()
         );
         let mut frame = image.clone();
@@ -216,7 +231,10 @@ fn a_rectified_frame_reaches_a_node_of_the_same_process_without_dds() {
             while let Ok(Some((message, _))) = status.take() {
                 let value: serde_json::Value =
                     serde_json::from_str(&message.data).expect("status JSON");
-                received = value["frames"]["received"].as_u64().unwrap_or(0);
+                judged = value["frames"]["received"].as_u64().unwrap_or(0);
+            }
+            while let Some(Ok(Some(_))) = rectified.as_ref().map(|r| r.take()) {
+                outside += 1;
             }
             std::thread::sleep(Duration::from_millis(10));
         }
@@ -227,20 +245,51 @@ fn a_rectified_frame_reaches_a_node_of_the_same_process_without_dds() {
         "the composition failed on SIGTERM:\n{}",
         exit.logs
     );
-    let summary = exit
-        .logs
-        .lines()
-        .find(|l| l.contains("[stereo.left.rectify_node]: shutting down: "))
-        .unwrap_or_else(|| panic!("no rectify_node summary:\n{}", exit.logs));
-    let published: u64 = summary
+    let summary = |node: &str| {
+        exit.logs
+            .lines()
+            .find(|l| l.contains(&format!("[{node}]: shutting down: ")))
+            .unwrap_or_else(|| panic!("no {node} summary:\n{}", exit.logs))
+            .to_owned()
+    };
+    let summaries = Summaries {
+        rectify: summary("stereo.left.rectify_node"),
+        calibrate: summary("inspect.calibrate_node"),
+    };
+    let published: u64 = summaries
+        .rectify
         .split(" frame(s) received, ")
         .nth(1)
         .and_then(|rest| rest.split(' ').next())
         .and_then(|n| n.parse().ok())
-        .unwrap_or_else(|| panic!("no published count in {summary}"));
-    assert!(published >= JUDGED, "{summary}");
+        .unwrap_or_else(|| panic!("no published count in {}", summaries.rectify));
+    assert!(published >= JUDGED, "{}", summaries.rectify);
+    summaries
+}
+
+#[test]
+fn a_rectified_frame_reaches_a_node_of_the_same_process_without_dds() {
+    let summaries = rectify_into_calibrate(false);
     assert!(
-        summary.contains("published (0 over DDS)"),
-        "image_rect went over DDS with no reader outside the process: {summary}"
+        summaries.rectify.contains("published (0 over DDS)"),
+        "image_rect went over DDS with no reader outside the process: {}",
+        summaries.rectify
+    );
+}
+
+#[test]
+fn with_a_reader_outside_dds_sends_only_to_it() {
+    let summaries = rectify_into_calibrate(true);
+    assert!(
+        !summaries.rectify.contains("published (0 over DDS)"),
+        "image_rect never went over DDS to the outside reader: {}",
+        summaries.rectify
+    );
+    assert!(
+        summaries
+            .calibrate
+            .contains(", 0 of this process's own over DDS ignored"),
+        "calibrate_node received rectify_node's frames over DDS as well: {}",
+        summaries.calibrate
     );
 }

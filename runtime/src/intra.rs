@@ -4,9 +4,13 @@
 //!
 //! Every node still has its DDS readers and writers for the world outside. A
 //! publisher sends a message over DDS only when a reader outside this process wants it
-//! (its DDS readers minus the in-process subscribers' own), and a subscriber ignores
-//! what arrives over DDS from a writer of this process, which it had already received
-//! by reference.
+//! (its DDS readers minus the in-process subscribers' own), and then DDS sends it to
+//! the outside readers only: an in-process publisher's DDS writer is never matched
+//! with the DDS reader of an in-process subscriber of its topic (rustdds'
+//! `set_local_delivery`), so the process does not receive and reassemble what it
+//! sent. A subscriber also ignores what arrives over DDS from a writer of this
+//! process (sent before the two were unmatched), which it had already received by
+//! reference.
 
 use std::any::Any;
 use std::collections::{HashMap, HashSet};
@@ -36,9 +40,22 @@ struct Topic {
 fn topics() -> MutexGuard<'static, HashMap<String, Topic>> {
     static TOPICS: OnceLock<Mutex<HashMap<String, Topic>>> = OnceLock::new();
     TOPICS
-        .get_or_init(Mutex::default)
+        .get_or_init(|| {
+            rustdds::set_local_delivery(delivered_in_process);
+            Mutex::default()
+        })
         .lock()
         .unwrap_or_else(PoisonError::into_inner)
+}
+
+/// Whether the DDS writer `writer` and the DDS reader `reader` belong to an
+/// in-process publisher and subscriber of the same topic, which receives the
+/// publisher's messages by reference.
+fn delivered_in_process(writer: GUID, reader: GUID) -> bool {
+    let writer = Gid::from(writer);
+    topics()
+        .values()
+        .any(|topic| topic.writers.contains(&writer) && topic.readers.contains(&reader))
 }
 
 fn next_id() -> u64 {
@@ -202,7 +219,13 @@ mod tests {
             HashSet::from([guid(1), guid(2), guid(3)])
         );
         assert!(is_in_process_writer(topic, &Gid::from(guid(9))));
+        // DDS never matches the publisher's writer with these readers, only others.
+        assert!(delivered_in_process(guid(9), guid(1)));
+        assert!(delivered_in_process(guid(9), guid(3)));
+        assert!(!delivered_in_process(guid(9), guid(7)));
+        assert!(!delivered_in_process(guid(8), guid(1)));
         drop(other);
+        assert!(!delivered_in_process(guid(9), guid(3)));
         drop(publication);
         assert!(!is_in_process_writer(topic, &Gid::from(guid(9))));
     }

@@ -9,7 +9,7 @@
 //! SIGINT/SIGTERM by letting the worker finish the frame at hand, logs what happened to
 //! every frame, and removes the node's readers before the node and its DDS participant.
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
@@ -72,6 +72,8 @@ struct Source<M: 'static, F, C> {
     subscription: Subscription<M>,
     intra: RefCell<IntraSubscription<M>>,
     deliver: Deliver<M, F, C>,
+    /// Messages of this process's publishers that arrived over DDS too (ignored).
+    own_over_dds: Cell<u64>,
 }
 
 /// The stream of what one [`Source`] delivers.
@@ -80,6 +82,10 @@ trait Incomings<F, C> {
 
     /// Messages of this process lost because the node's in-process queue was full.
     fn dropped_in_process(&self) -> u64;
+
+    /// Messages of this process's publishers that arrived over DDS as well, and were
+    /// ignored.
+    fn own_over_dds(&self) -> u64;
 }
 
 impl<M, F, C> Incomings<F, C> for Source<M, F, C>
@@ -91,9 +97,16 @@ where
             futures::future::ready(match message {
                 Ok((message, info)) => {
                     let writer = info.publisher_gid();
-                    (!is_in_process_writer(&self.topic, &writer)).then(|| {
-                        (self.deliver)(Arrival::Dds(message, writer, info.sequence_number()))
-                    })
+                    if is_in_process_writer(&self.topic, &writer) {
+                        self.own_over_dds.set(self.own_over_dds.get() + 1);
+                        None
+                    } else {
+                        Some((self.deliver)(Arrival::Dds(
+                            message,
+                            writer,
+                            info.sequence_number(),
+                        )))
+                    }
                 }
                 Err(e) => Some(Incoming::Undecodable {
                     topic: self.topic.clone(),
@@ -113,6 +126,10 @@ where
 
     fn dropped_in_process(&self) -> u64 {
         self.intra.borrow().dropped()
+    }
+
+    fn own_over_dds(&self) -> u64 {
+        self.own_over_dds.get()
     }
 }
 
@@ -243,6 +260,7 @@ impl<F: 'static, C: 'static> Inputs<F, C> {
             subscription,
             intra: RefCell::new(intra),
             deliver: Box::new(deliver),
+            own_over_dds: Cell::new(0),
         }));
         Ok(self)
     }
@@ -434,9 +452,11 @@ where
     } else {
         String::new()
     };
+    let own_over_dds: u64 = inputs.sources.iter().map(|s| s.own_over_dds()).sum();
     log::info!(
         "shutting down: {} frame(s) received, {done}, {} dropped while the {} thread was busy, \
-         {} lost before reception, {} without a partner{latched}",
+         {} lost before reception, {} without a partner{latched}, {own_over_dds} of this \
+         process's own over DDS ignored",
         stats.received(),
         stats.dropped(),
         W::NAME,

@@ -207,6 +207,7 @@ pub mod ros2;
 pub mod serialization;
 
 // Re-exports from crate root to simplify usage
+pub use rtps::local_delivery::set_local_delivery;
 #[doc(inline)]
 pub use dds::{
   key::{Key, Keyed},

@@ -33,6 +33,7 @@ use crate::{
       NACK_RESPONSE_DELAY, NACK_SUPPRESSION_DURATION, REPAIR_BATCH_MAX_BYTES,
       REPAIR_INTERVAL_DEFAULT, REPAIR_INTERVAL_MAX, REPAIR_INTERVAL_MIN,
     },
+    local_delivery,
     outbound::{SocketId, TrafficClass},
     rtps_reader_proxy::RtpsReaderProxy,
     timed_event::DpTimerEvent,
@@ -772,6 +773,7 @@ impl Writer {
   }
 
   pub fn process_pending(&mut self) {
+    self.unmatch_locally_delivered_readers();
     // The doorbell enqueues this writer's id and then wakes. A sample admitted
     // while we are here pushes another id, so the next wake runs us again. The
     // shared buffer's `last_seq` is the source of truth.
@@ -1973,6 +1975,10 @@ impl Writer {
     reader_proxy: &RtpsReaderProxy,
     requested_qos: &QosPolicies,
   ) {
+    if local_delivery::delivered_locally(self.my_guid, reader_proxy.remote_reader_guid) {
+      self.reader_lost(reader_proxy.remote_reader_guid);
+      return;
+    }
     debug!(
       "update_reader_proxy topic={:?} reader_proxy={reader_proxy:?}",
       self.my_topic_name
@@ -2188,6 +2194,20 @@ impl Writer {
     // A matched reader going away may complete a pending wait_for_acknowledgments
     // and may relax back-pressure: recompute the acknowledgement frontier.
     self.refresh_acked_frontier();
+  }
+
+  /// Unmatches the readers the application delivers this writer's samples to itself
+  /// (registered after they were matched).
+  fn unmatch_locally_delivered_readers(&mut self) {
+    let local: Vec<GUID> = self
+      .readers
+      .keys()
+      .filter(|reader| local_delivery::delivered_locally(self.my_guid, **reader))
+      .copied()
+      .collect();
+    for reader in local {
+      self.reader_lost(reader);
+    }
   }
 
   // Entire remote participant was lost.
