@@ -30,6 +30,7 @@ pub mod camera_info_url;
 pub mod clock;
 mod dds_sender;
 pub mod error;
+mod frame_memory;
 mod intra;
 pub mod logging;
 pub mod names;

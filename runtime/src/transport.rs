@@ -285,8 +285,10 @@ impl TransportConfig {
         })
     }
 
-    /// A ROS 2 context on `domain_id` with these settings.
+    /// A ROS 2 context on `domain_id` with these settings. The process's allocator
+    /// keeps freed frame buffers from then on (see `frame_memory`).
     pub fn context(&self, domain_id: u16) -> Result<Context, TransportError> {
+        crate::frame_memory::keep_freed_frame_buffers();
         Context::from_domain_participant(self.participant(domain_id)?).map_err(|e| {
             TransportError::Context {
                 domain_id,
