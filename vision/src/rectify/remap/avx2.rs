@@ -361,57 +361,53 @@ mod tests {
         }
     }
 
-    /// The AVX2 mono kernel alone, where the CPU also has AVX-512.
-    fn avx2_row_c1(src: Source<'_, u8>, xy: &[[i16; 2]], fraction: &[u16], dst: &mut [u8]) {
-        match Geometry::new::<1>(&src) {
+    /// The AVX2 kernel of `CN` channels alone, where the CPU also has AVX-512.
+    fn avx2_row<const CN: usize>(
+        src: Source<'_, u8>,
+        xy: &[[i16; 2]],
+        fraction: &[u16],
+        dst: &mut [u8],
+    ) {
+        match Geometry::new::<CN>(&src) {
             // SAFETY: AVX2 is present (checked by `Geometry::new`).
-            Some(geometry) => unsafe { bilinear_c1(src, geometry, xy, fraction, dst) },
-            None => scalar::bilinear_row::<u8, 1>(src, xy, fraction, dst),
+            Some(geometry) if CN == 1 => unsafe { bilinear_c1(src, geometry, xy, fraction, dst) },
+            // SAFETY: as above.
+            Some(geometry) => unsafe { bilinear_c3(src, geometry, xy, fraction, dst) },
+            None => scalar::bilinear_row::<u8, CN>(src, xy, fraction, dst),
         }
     }
 
-    /// The AVX-512 mono kernel alone, where the CPU has it.
-    fn avx512_row_c1(src: Source<'_, u8>, xy: &[[i16; 2]], fraction: &[u16], dst: &mut [u8]) {
-        match Geometry::new::<1>(&src) {
+    /// The AVX-512 kernel of `CN` channels alone, where the CPU has it.
+    fn avx512_row<const CN: usize>(
+        src: Source<'_, u8>,
+        xy: &[[i16; 2]],
+        fraction: &[u16],
+        dst: &mut [u8],
+    ) {
+        match Geometry::new::<CN>(&src) {
             // SAFETY: AVX2 (checked by `Geometry::new`) and AVX-512 are present.
-            Some(geometry) if avx512::available() => unsafe {
+            Some(geometry) if avx512::available() && CN == 1 => unsafe {
                 avx512::bilinear_c1(src, geometry, xy, fraction, dst)
             },
-            _ => scalar::bilinear_row::<u8, 1>(src, xy, fraction, dst),
+            // SAFETY: as above.
+            Some(geometry) if avx512::available() => unsafe {
+                avx512::bilinear_c3(src, geometry, xy, fraction, dst)
+            },
+            _ => scalar::bilinear_row::<u8, CN>(src, xy, fraction, dst),
         }
     }
 
     #[test]
     fn mono_matches_the_portable_kernel() {
-        check::<1>(avx2_row_c1);
-        check::<1>(avx512_row_c1);
+        check::<1>(avx2_row::<1>);
+        check::<1>(avx512_row::<1>);
         check::<1>(bilinear_row_c1);
-    }
-
-    /// The AVX2 three-channel kernel alone, where the CPU also has AVX-512.
-    fn avx2_row_c3(src: Source<'_, u8>, xy: &[[i16; 2]], fraction: &[u16], dst: &mut [u8]) {
-        match Geometry::new::<3>(&src) {
-            // SAFETY: AVX2 is present (checked by `Geometry::new`).
-            Some(geometry) => unsafe { bilinear_c3(src, geometry, xy, fraction, dst) },
-            None => scalar::bilinear_row::<u8, 3>(src, xy, fraction, dst),
-        }
-    }
-
-    /// The AVX-512 three-channel kernel alone, where the CPU has it.
-    fn avx512_row_c3(src: Source<'_, u8>, xy: &[[i16; 2]], fraction: &[u16], dst: &mut [u8]) {
-        match Geometry::new::<3>(&src) {
-            // SAFETY: AVX2 (checked by `Geometry::new`) and AVX-512 are present.
-            Some(geometry) if avx512::available() => unsafe {
-                avx512::bilinear_c3(src, geometry, xy, fraction, dst)
-            },
-            _ => scalar::bilinear_row::<u8, 3>(src, xy, fraction, dst),
-        }
     }
 
     #[test]
     fn three_channels_match_the_portable_kernel() {
-        check::<3>(avx2_row_c3);
-        check::<3>(avx512_row_c3);
+        check::<3>(avx2_row::<3>);
+        check::<3>(avx512_row::<3>);
         check::<3>(bilinear_row_c3);
     }
 }
