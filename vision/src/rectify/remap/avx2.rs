@@ -100,16 +100,21 @@ impl Geometry {
     }
 }
 
-/// Byte offsets of 8 mono positions and whether all of them may take the vector path.
+/// Byte offsets of 8 positions of a `CN`-channel image and whether all of them may
+/// take the vector path.
 #[inline]
 #[target_feature(enable = "avx2")]
-fn offsets_c1(geometry: Geometry, xy: __m256i) -> (__m256i, bool) {
+pub(super) fn offsets8<const CN: usize>(geometry: Geometry, xy: __m256i) -> (__m256i, bool) {
     let limits = _mm256_set1_epi32(geometry.limits());
     let outside = _mm256_or_si256(
         _mm256_cmpgt_epi16(xy, limits),
         _mm256_cmpgt_epi16(_mm256_setzero_si256(), xy),
     );
-    let offsets = _mm256_madd_epi16(xy, _mm256_set1_epi32(geometry.row_step()));
+    let pixels = _mm256_madd_epi16(xy, _mm256_set1_epi32(geometry.row_step()));
+    let mut offsets = pixels;
+    for _ in 1..CN {
+        offsets = _mm256_add_epi32(offsets, pixels);
+    }
     let too_far = _mm256_cmpgt_epi32(offsets, _mm256_set1_epi32(geometry.max_offset));
     let bad = _mm256_or_si256(outside, too_far);
     (offsets, _mm256_testz_si256(bad, bad) == 1)
@@ -160,7 +165,7 @@ unsafe fn bilinear_c1(
             )
         };
         prefetch::<u8, 1>(src, xy.get(x + PREFETCH_AHEAD));
-        let (offsets, inside) = offsets_c1(geometry, pos);
+        let (offsets, inside) = offsets8::<1>(geometry, pos);
         if !inside {
             scalar::bilinear_row::<u8, 1>(
                 src,
@@ -179,7 +184,7 @@ unsafe fn bilinear_c1(
         let mut quads = [0i32; LANES];
         for (q, &o) in quads.iter_mut().zip(&offs) {
             let o = o as usize;
-            // SAFETY: `0 <= o <= len - stride - 4` (checked by `offsets_c1`), so both
+            // SAFETY: `0 <= o <= len - stride - 4` (checked by `offsets8`), so both
             // 2-byte reads lie inside the source.
             let (top, bottom) = unsafe {
                 (

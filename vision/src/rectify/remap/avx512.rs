@@ -7,7 +7,7 @@
 
 use std::arch::x86_64::*;
 
-use super::avx2::Geometry;
+use super::avx2::{Geometry, offsets8};
 use super::scalar::{self, PREFETCH_AHEAD, Source, prefetch};
 use crate::rectify::map::{INTER_BITS, INTER_TAB_SIZE};
 
@@ -101,22 +101,19 @@ pub(super) unsafe fn bilinear_c1(
     scalar::bilinear_row::<u8, 1>(src, &xy[x..n], &fraction[x..n], &mut dst[x..n]);
 }
 
-/// Byte offsets of 8 three-channel positions and whether all of them may take the
-/// vector path.
-#[inline]
-#[target_feature(enable = "avx2")]
-fn offsets_c3(geometry: Geometry, xy: __m256i) -> (__m256i, bool) {
-    let limits = _mm256_set1_epi32(geometry.limits());
-    let outside = _mm256_or_si256(
-        _mm256_cmpgt_epi16(xy, limits),
-        _mm256_cmpgt_epi16(_mm256_setzero_si256(), xy),
-    );
-    let pixels = _mm256_madd_epi16(xy, _mm256_set1_epi32(geometry.row_step()));
-    let offsets = _mm256_add_epi32(pixels, _mm256_add_epi32(pixels, pixels));
-    let too_far = _mm256_cmpgt_epi32(offsets, _mm256_set1_epi32(geometry.max_offset()));
-    let bad = _mm256_or_si256(outside, too_far);
-    (offsets, _mm256_testz_si256(bad, bad) == 1)
-}
+/// The byte permutation that packs a block of eight 3-channel pixels: after packing to
+/// bytes, 128-bit lane k holds [R G B 0 R G B 0] of pixels 2k and 2k+1 in its low 8
+/// bytes; output byte j is channel j % 3 of pixel j / 3.
+const C3_ORDER: [u8; 64] = {
+    let mut order = [0u8; 64];
+    let mut j = 0;
+    while j < 24 {
+        let (pixel, channel) = (j / 3, j % 3);
+        order[j] = (16 * (pixel / 2) + 4 * (pixel % 2) + channel) as u8;
+        j += 1;
+    }
+    order
+};
 
 /// The bilinear rgb8/bgr8 row of the AVX2 kernel, eight pixels at a time.
 ///
@@ -142,15 +139,8 @@ pub(super) unsafe fn bilinear_c3(
     let pairs = _mm512_broadcast_i32x4(_mm_setr_epi8(
         0, 3, 1, 4, 2, 5, -1, -1, 8, 11, 9, 12, 10, 13, -1, -1,
     ));
-    // After packing, 128-bit lane k holds [R G B 0 R G B 0] of pixels 2k and 2k+1 in its
-    // low 8 bytes; output byte j is channel j % 3 of pixel j / 3.
-    let mut order = [0u8; 64];
-    for (j, o) in order.iter_mut().enumerate().take(3 * LANES) {
-        let (pixel, channel) = (j / 3, j % 3);
-        *o = (16 * (pixel / 2) + 4 * (pixel % 2) + channel) as u8;
-    }
-    // SAFETY: `order` holds 64 bytes.
-    let order = unsafe { _mm512_loadu_si512(order.as_ptr().cast()) };
+    // SAFETY: `C3_ORDER` holds 64 bytes.
+    let order = unsafe { _mm512_loadu_si512(C3_ORDER.as_ptr().cast()) };
     let mut x = 0;
     while x + LANES <= n {
         // SAFETY: `x + LANES <= n` keeps the 32-byte map load (8 pairs of i16) and the
@@ -163,7 +153,7 @@ pub(super) unsafe fn bilinear_c3(
         };
         prefetch::<u8, 3>(src, xy.get(x + PREFETCH_AHEAD));
         prefetch::<u8, 3>(src, xy.get(x + PREFETCH_AHEAD + LANES / 2));
-        let (offsets, inside) = offsets_c3(geometry, pos);
+        let (offsets, inside) = offsets8::<3>(geometry, pos);
         if !inside {
             scalar::bilinear_row::<u8, 3>(
                 src,
@@ -175,7 +165,7 @@ pub(super) unsafe fn bilinear_c3(
             continue;
         }
         // SAFETY: `0 <= o <= len - stride - 8` for every offset (checked by
-        // `offsets_c3`), so each 8-byte read of both rows lies inside the source.
+        // `offsets8`), so each 8-byte read of both rows lies inside the source.
         let (top, bottom) = unsafe {
             (
                 _mm512_i32gather_epi64::<1>(offsets, base.cast()),
