@@ -246,6 +246,15 @@ impl FragmentAssembler {
 
     if assembly_buffer.is_complete() {
       debug!("new_datafrag: COMPLETED FRAGMENT");
+      if !self.reliable {
+        // A best-effort reader never takes a sample older than one it has
+        // received (RTPS 8.4.11.2, expected_seq_num), so the incomplete samples
+        // before this one can no longer be delivered. Freeing their buffers now,
+        // rather than at the 10 s idle timeout, keeps a reader that loses
+        // fragments from holding a sample-sized buffer per lost sample, each of
+        // them fresh memory for the kernel to fault in and zero.
+        self.assembly_buffers = self.assembly_buffers.split_off(&writer_sn);
+      }
       if let Some(assembly_buffer) = self.assembly_buffers.remove(&writer_sn) {
         // Return what we have assembled.
         let serialized_data_or_key =
@@ -409,6 +418,45 @@ mod tests {
     let mut ab = AssemblyBuffer::new(&bad).expect("buffer for valid data_size");
     assert!(!ab.insert_frags(&bad, frag_size));
     assert!(!ab.is_complete());
+  }
+
+  // A best-effort assembler frees the incomplete samples older than one it
+  // completes; a reliable one keeps them for the writer to repair.
+  #[test]
+  fn best_effort_drops_incomplete_samples_older_than_a_completed_one() {
+    use enumflags2::BitFlags;
+
+    use super::FragmentAssembler;
+    use crate::{
+      messages::submessages::submessages::DATAFRAG_Flags,
+      structure::sequence_number::SequenceNumber,
+    };
+
+    let frag_size = 256u16;
+    let data_size = 512u32; // 2 fragments
+    let frag = |sn: i64, start: u32| DataFrag {
+      writer_sn: SequenceNumber::new(sn),
+      ..datafrag(start, 1, frag_size, data_size, vec![sn as u8; 256])
+    };
+    let flags = BitFlags::<DATAFRAG_Flags>::empty();
+    for reliable in [false, true] {
+      let mut fa = FragmentAssembler::new(frag_size, reliable);
+      // Samples 1 and 2 lose their second fragment; sample 4 is still arriving.
+      for sn in [1, 2, 4] {
+        assert!(fa.new_datafrag(&frag(sn, 1), flags).is_none());
+      }
+      assert!(fa.new_datafrag(&frag(3, 1), flags).is_none());
+      assert!(fa.new_datafrag(&frag(3, 2), flags).is_some(), "sample 3 completes");
+      for sn in [1, 2] {
+        assert_eq!(
+          fa.is_partially_received(SequenceNumber::new(sn)),
+          reliable,
+          "sample {sn}, reliable {reliable}"
+        );
+      }
+      assert!(fa.is_partially_received(SequenceNumber::new(4)));
+      assert!(fa.new_datafrag(&frag(4, 2), flags).is_some(), "sample 4 completes");
+    }
   }
 
   #[test]
