@@ -1,6 +1,7 @@
 //! Sending a publisher's messages over DDS from a thread of its own, at a lower CPU
 //! priority than the node's threads: the node hands a frame to its subscribers in the
-//! process and goes on, and the frame is serialized and sent in the time left over.
+//! process and goes on, and the frame is serialized and sent in the time left over,
+//! once no node of the process is handling a frame ([`crate::frame_work`]).
 //! What waits is bounded like the topic's keep-last history: when more messages wait
 //! than its depth, the oldest is dropped.
 
@@ -8,15 +9,17 @@ use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use std::thread::JoinHandle;
+use std::time::Instant;
 
 use ros2_client::Publisher;
 use serde::Serialize;
 
 use crate::error::{Result, RuntimeError};
 
-/// Messages waiting to be sent, and whether the sender is to stop.
+/// Messages waiting to be sent (with when each was queued), and whether the sender is
+/// to stop.
 struct Queue<M> {
-    waiting: VecDeque<Arc<M>>,
+    waiting: VecDeque<(Instant, Arc<M>)>,
     stop: bool,
 }
 
@@ -79,7 +82,7 @@ impl<M: Serialize + Send + Sync + 'static> DeferredSender<M> {
             .queue
             .lock()
             .unwrap_or_else(PoisonError::into_inner);
-        let dropped = push_keeping_last(&mut queue.waiting, message, self.depth);
+        let dropped = push_keeping_last(&mut queue.waiting, (Instant::now(), message), self.depth);
         self.shared.dropped.fetch_add(dropped, Ordering::Relaxed);
         self.shared.ready.notify_one();
     }
@@ -108,7 +111,7 @@ fn push_keeping_last<T>(waiting: &mut VecDeque<T>, item: T, depth: usize) -> u64
 
 fn send_until_stopped<M: Serialize>(shared: &Shared<M>, dds: &Publisher<Arc<M>>, topic: &str) {
     loop {
-        let message = {
+        let (queued, message) = {
             let mut queue = shared.queue.lock().unwrap_or_else(PoisonError::into_inner);
             loop {
                 if queue.stop {
@@ -123,6 +126,7 @@ fn send_until_stopped<M: Serialize>(shared: &Shared<M>, dds: &Publisher<Arc<M>>,
                     .unwrap_or_else(PoisonError::into_inner);
             }
         };
+        crate::frame_work::wait_until_idle(queued + crate::frame_work::LONGEST_HOLD);
         match dds.publish(message) {
             Ok(()) => {
                 shared.sent.fetch_add(1, Ordering::Relaxed);

@@ -31,6 +31,7 @@ pub mod clock;
 mod dds_sender;
 pub mod error;
 mod frame_memory;
+mod frame_work;
 mod intra;
 pub mod logging;
 pub mod names;

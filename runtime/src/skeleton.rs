@@ -364,7 +364,10 @@ where
                 worker.start(&stats);
                 loop {
                     match queue.pop_timeout(W::POLL) {
-                        Some(work) => worker.handle(work, &stats),
+                        Some(work) => {
+                            let _frame = crate::frame_work::begin();
+                            worker.handle(work, &stats);
+                        }
                         None if queue.is_closed() => break,
                         None => {}
                     }
