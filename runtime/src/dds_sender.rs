@@ -1,9 +1,9 @@
-//! Sending a publisher's messages over DDS from a thread of its own, at a lower CPU
-//! priority than the node's threads: the node hands a frame to its subscribers in the
-//! process and goes on, and the frame is serialized and sent in the time left over,
-//! once no node of the process is handling a frame ([`crate::frame_work`]).
-//! What waits is bounded like the topic's keep-last history: when more messages wait
-//! than its depth, the oldest is dropped.
+//! Sending a publisher's messages over DDS from a thread of its own: the node hands a
+//! frame to its subscribers in the process and goes on, and the frame is serialized and
+//! sent once no node of the process is handling a frame ([`crate::frame_work`]), at a
+//! lower CPU priority than the node's threads if [`crate::transport::DDS_NICE_ENV`]
+//! asks for it. What waits is bounded like the topic's keep-last history: when more
+//! messages wait than its depth, the oldest is dropped.
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -32,7 +32,7 @@ struct Shared<M> {
 }
 
 /// A publisher's DDS writer driven from a thread of its own; see the module
-/// documentation. Dropping it stops the thread (messages still waiting are dropped).
+/// documentation. Dropping it stops the thread once the messages waiting are sent.
 pub(crate) struct DeferredSender<M: Serialize + Send + Sync + 'static> {
     shared: Arc<Shared<M>>,
     depth: usize,
@@ -62,7 +62,9 @@ impl<M: Serialize + Send + Sync + 'static> DeferredSender<M> {
         let thread = std::thread::Builder::new()
             .name("dds-send".into())
             .spawn(move || {
-                if let Err(e) = crate::priority::lower_this_thread(nice) {
+                if nice > 0
+                    && let Err(e) = crate::priority::lower_this_thread(nice)
+                {
                     log::warn!("{name}: DDS sending keeps the node's priority: {e}");
                 }
                 send_until_stopped(&thread_shared, &dds, &name);
@@ -114,11 +116,11 @@ fn send_until_stopped<M: Serialize>(shared: &Shared<M>, dds: &Publisher<Arc<M>>,
         let (queued, message) = {
             let mut queue = shared.queue.lock().unwrap_or_else(PoisonError::into_inner);
             loop {
-                if queue.stop {
-                    return;
-                }
                 if let Some(message) = queue.waiting.pop_front() {
                     break message;
+                }
+                if queue.stop {
+                    return;
                 }
                 queue = shared
                     .ready

@@ -452,12 +452,11 @@ impl RosNode {
             .create_publisher::<Arc<M>>(&topic, Some(qos))
             .map_err(|e| middleware(&format!("publisher on {resolved}"), e))?;
         log::debug!("publishing {resolved} ({})", M::TYPE_NAME);
-        let sending = match (self.dds_nice, history) {
-            (0, _) => DdsSending::Inline,
-            (nice, History::KeepLast { depth }) => DdsSending::Deferred { nice, depth },
-            (nice, History::KeepAll) => DdsSending::Deferred {
-                nice,
-                depth: usize::MAX,
+        let sending = DdsSending {
+            nice: self.dds_nice,
+            depth: match history {
+                History::KeepLast { depth } => depth,
+                History::KeepAll => usize::MAX,
             },
         };
         TopicPublisher::new(

@@ -1,10 +1,11 @@
 //! A node's publisher of one topic: every message goes by reference to the subscribers
 //! in this process ([`crate::intra`]), and over DDS only while a reader outside the
-//! process listens, so a frame nobody outside wants is never serialized. A transient
-//! local (latched) topic always goes over DDS too, so that its last messages wait in
-//! the writer for readers that join later. A node whose DDS threads run at a lower
-//! priority ([`crate::transport::DDS_NICE_ENV`]) also serializes and sends its other
-//! topics from a thread of that priority ([`crate::dds_sender`]).
+//! process listens, so a frame nobody outside wants is never serialized. What goes over
+//! DDS is serialized and sent from a thread of the publisher's own ([`crate::dds_sender`]),
+//! so the node goes on with its next frame meanwhile, and, if [`crate::transport::DDS_NICE_ENV`]
+//! asks for it, at a lower priority. A transient local (latched) topic is sent from the
+//! publishing thread as it is published, so that its last messages are in the writer
+//! for readers that join later.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -32,24 +33,19 @@ pub struct TopicPublisher<M: Serialize + Send + Sync + 'static> {
     deferred: Option<DeferredSender<M>>,
 }
 
-/// How a publisher hands its messages to DDS.
+/// How a publisher's thread of its own sends its messages over DDS.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum DdsSending {
-    /// On the publishing thread, as `publish` is called.
-    Inline,
-    /// From a thread of its own, `nice` steps of nice lower, at most `depth` waiting.
-    Deferred {
-        /// Steps of nice below the node's threads.
-        nice: u8,
-        /// Messages that may wait; beyond it the oldest is dropped.
-        depth: usize,
-    },
+pub(crate) struct DdsSending {
+    /// Steps of nice below the node's threads.
+    pub(crate) nice: u8,
+    /// Messages that may wait; beyond it the oldest is dropped.
+    pub(crate) depth: usize,
 }
 
 impl<M: Serialize + Send + Sync + 'static> TopicPublisher<M> {
     /// The publisher of the ROS topic `topic` (resolved), over the DDS writer `dds` of
-    /// `participant`, transient local when `latched` (a latched topic is always sent
-    /// inline, whatever `sending` asks).
+    /// `participant`, transient local when `latched` (a latched topic is sent from the
+    /// publishing thread, whatever `sending` asks).
     pub(crate) fn new(
         topic: &str,
         dds: Publisher<Arc<M>>,
@@ -59,11 +55,15 @@ impl<M: Serialize + Send + Sync + 'static> TopicPublisher<M> {
     ) -> Result<Self> {
         let intra = IntraPublication::new(topic, dds.gid());
         let dds = Arc::new(dds);
-        let deferred = match sending {
-            DdsSending::Deferred { nice, depth } if !latched => {
-                Some(DeferredSender::start(Arc::clone(&dds), topic, nice, depth)?)
-            }
-            _ => None,
+        let deferred = if latched {
+            None
+        } else {
+            Some(DeferredSender::start(
+                Arc::clone(&dds),
+                topic,
+                sending.nice,
+                sending.depth,
+            )?)
         };
         Ok(Self {
             dds,
@@ -103,8 +103,8 @@ impl<M: Serialize + Send + Sync + 'static> TopicPublisher<M> {
     }
 
     /// Messages for readers outside the process dropped before DDS had sent them,
-    /// because newer ones filled the topic's history (only when DDS sends from a
-    /// thread of lower priority, see the module documentation).
+    /// because newer ones filled the topic's history while they waited (see the module
+    /// documentation).
     pub fn dropped_before_dds(&self) -> u64 {
         self.deferred.as_ref().map_or(0, |d| d.dropped())
     }

@@ -40,10 +40,11 @@ pub const RECEIVE_BUFFER_ENV: &str = "STEREOCAL_DDS_RECEIVE_BUFFER";
 pub const SEND_BUFFER_ENV: &str = "STEREOCAL_DDS_SEND_BUFFER";
 
 /// Environment variable with how many steps of nice lower the CPU priority of a
-/// node's DDS threads (RustDDS's event loop, which serializes nothing but sends and
-/// receives every datagram, and its discovery thread) below the node's own threads:
-/// 0 to 19, default 0. Where the CPU is short, the node's processing then goes first
-/// and the datagrams of frames for other processes are sent in the time left over.
+/// node's DDS threads (RustDDS's event loop, which sends and receives every datagram,
+/// its discovery thread, and the publishers' threads that serialize and send) below
+/// the node's own threads: 0 to 19, default 0. Where the CPU is short, the node's
+/// processing then goes first and the frames for other processes are sent in the time
+/// left over.
 pub const DDS_NICE_ENV: &str = "STEREOCAL_DDS_NICE";
 
 /// Largest nice value Linux has.
