@@ -402,7 +402,27 @@ impl RtpsReaderProxy {
   /// 3. A guarantee that a datagram built with the larger budget is sent to
   ///    *only* that one locator (today the fallback and multicast-to-all paths
   ///    reuse one datagram across many locators).
+  ///
+  /// Item 1 and 3 hold for one kind of route: a resolved route to a single
+  /// unicast locator, with no multicast and no fallback, sends this reader's
+  /// datagrams to that locator only (and a multicast-to-all datagram is packed
+  /// to the smallest budget among all readers). Such a reader gets the budget
+  /// of that locator alone; in particular a reader on the same host, routed
+  /// over loopback, gets the loopback budget although it also advertises
+  /// addresses of smaller MTU.
   pub fn resolve_path_mtu(&mut self, local_interfaces: &[IfAddr]) {
+    if let SendRoute {
+      unicast: Some(only),
+      multicast: None,
+      fallback: false,
+    } = self.send_route
+    {
+      if only.is_udp() {
+        self.max_datagram_payload =
+          path_mtu_payload_for_peer(local_interfaces, SocketAddr::from(only).ip());
+        return;
+      }
+    }
     let budget = self
       .unicast_locator_list
       .iter()
@@ -836,6 +856,54 @@ mod route_tests {
     assert_eq!(
       route.multicast,
       Some((udp([239, 255, 0, 1], 7401), iface([10, 0, 0, 1])))
+    );
+  }
+
+  // A reader on this host routed over loopback gets the loopback budget; one
+  // whose datagrams may go to all its locators keeps the smallest budget.
+  #[test]
+  fn path_mtu_follows_a_single_locator_route() {
+    use crate::network::util::IfAddr;
+
+    let iface = |ip: [u8; 4], prefix: u32, mtu: u32, is_loopback: bool| IfAddr {
+      ip: IpAddr::V4(Ipv4Addr::from(ip)),
+      index: 1,
+      is_loopback,
+      is_multicast: !is_loopback,
+      netmask: Some(Ipv4Addr::from(u32::MAX << (32 - prefix))),
+      mtu: Some(mtu),
+    };
+    let interfaces = [
+      iface([127, 0, 0, 1], 8, 65536, true),
+      iface([10, 0, 0, 1], 24, 1500, false),
+    ];
+    let prefix = GuidPrefix::new(&[5; 12]);
+    let mut rp = proxy_with_prefix(prefix);
+    rp.unicast_locator_list = vec![udp([10, 0, 0, 1], 7413)];
+    rp.loopback_unicast_locators = vec![udp([127, 0, 0, 1], 7413)];
+    let selector = DefaultRouteSelector::default();
+
+    // Nothing observed yet: the fallback route may use every locator.
+    rp.resolve_send_route(&InterfaceObservations::new(), &[], &selector);
+    rp.resolve_path_mtu(&interfaces);
+    assert!(rp.send_route().fallback);
+    let ethernet_budget = rp.max_datagram_payload();
+    assert!(ethernet_budget < 1500, "budget {ethernet_budget}");
+
+    // Traffic seen from loopback: the same host, routed over loopback only.
+    let mut observations = InterfaceObservations::new();
+    observations.record(
+      prefix,
+      None,
+      SocketAddr::new(IpAddr::V4(Ipv4Addr::LOCALHOST), 7410),
+    );
+    rp.resolve_send_route(&observations, &[], &selector);
+    rp.resolve_path_mtu(&interfaces);
+    assert_eq!(rp.send_route().unicast, Some(udp([127, 0, 0, 1], 7413)));
+    assert!(
+      rp.max_datagram_payload() > 60_000,
+      "budget {}",
+      rp.max_datagram_payload()
     );
   }
 
