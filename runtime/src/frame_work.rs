@@ -3,17 +3,18 @@
 //!
 //! In a composed pipeline the in-process path is the one whose latency matters: a
 //! rectified pair goes to the next node by reference as soon as both images are done.
-//! A node whose DDS sending runs at a lower priority ([`crate::dds_sender`]) also holds
-//! each message for outside readers until no node of the process is handling a frame,
-//! for at most [`LONGEST_HOLD`]. Otherwise the left image's serializing, sending and
-//! the other process's receiving run while the right image is still being rectified,
-//! on the same cores and memory.
+//! A publisher's DDS sending thread ([`crate::dds_sender`]) holds each message for
+//! outside readers until no node of the process is handling a frame, for at most
+//! [`LONGEST_HOLD`]. Otherwise the left image's serializing, sending and the other
+//! process's receiving run while the right image is still being rectified, on the same
+//! cores and memory. Frames are counted while a node skeleton's worker handles them
+//! ([`crate::skeleton`]).
 
 use std::sync::{Condvar, Mutex, PoisonError};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// The longest a message for outside readers waits for the process's frames.
-pub(crate) const LONGEST_HOLD: std::time::Duration = std::time::Duration::from_millis(20);
+pub(crate) const LONGEST_HOLD: Duration = Duration::from_millis(20);
 
 /// Frames being handled in the process now.
 static IN_PROGRESS: Mutex<usize> = Mutex::new(0);
@@ -55,8 +56,6 @@ pub(crate) fn wait_until_idle(deadline: Instant) {
 
 #[cfg(test)]
 mod tests {
-    use std::time::Duration;
-
     use super::*;
 
     #[test]
