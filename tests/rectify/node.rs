@@ -1,8 +1,8 @@
 //! End to end over DDS on loopback: the built `rectify_node` binary, on its own ROS
 //! domain, rectifies what this test publishes exactly as the rectify stage does, serves
 //! and describes its parameters through the ROS 2 parameter services (refusing
-//! out-of-range and read-only sets, publishing `/parameter_events`), and stops cleanly
-//! on SIGTERM.
+//! out-of-range and read-only sets, publishing `/parameter_events` and unmoved by
+//! events of others), and stops cleanly on SIGTERM.
 
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -106,7 +106,7 @@ fn rectifies_every_frame_like_the_stage_and_stops_on_sigterm() {
 
 #[test]
 fn with_its_dds_threads_at_a_lower_priority_every_frame_still_goes_over_dds_in_order() {
-    // image_rect is then serialized and sent from a thread of its own.
+    // image_rect is then serialized and sent from a thread of lower priority.
     rectifies_every_frame_like_the_stage(&[(DDS_NICE_ENV, "10")]);
 }
 
@@ -442,6 +442,51 @@ fn parameters_are_served_described_and_checked() {
     };
     assert_eq!(changed.node, "/cam/rectify_node");
     assert_eq!(changed.changed_parameters, [integer("interpolation", 0)]);
+
+    // A parameter event reports another node's change; one naming this node and a
+    // parameter it does not have, or another value for one it has, changes nothing.
+    let foreign = ParameterEvent {
+        node: "/cam/rectify_node".into(),
+        new_parameters: vec![integer("no_such_parameter", 5)],
+        changed_parameters: vec![integer("no_such_parameter", 6), integer("interpolation", 2)],
+        deleted_parameters: vec![integer("queue_size", 7)],
+        ..ParameterEvent::default()
+    };
+    let publisher = peer
+        .publisher::<ParameterEvent>("/parameter_events", qos::reliable(100))
+        .expect("parameter events publisher");
+    let deadline = Instant::now() + TIMEOUT;
+    loop {
+        publisher.publish(foreign.clone()).expect("publish event");
+        let seen = block_on_timeout(
+            async {
+                loop {
+                    if let Ok((event, _)) = events.async_take().await
+                        && event == foreign
+                    {
+                        break;
+                    }
+                }
+            },
+            Duration::from_secs(2),
+        );
+        if seen.is_some() {
+            break;
+        }
+        assert!(
+            Instant::now() < deadline,
+            "our parameter event was not on the domain in {TIMEOUT:?}"
+        );
+    }
+    assert_eq!(get_values(peer.node()), [0, 7]);
+    let names = call(peer.node(), &list, ListParametersRequest::default())
+        .result
+        .names;
+    assert!(
+        !names.iter().any(|name| name == "no_such_parameter"),
+        "{names:?}"
+    );
+    assert!(names.iter().any(|name| name == "queue_size"), "{names:?}");
 
     let exit = process.terminate();
     assert!(
