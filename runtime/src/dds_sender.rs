@@ -15,6 +15,7 @@ use ros2_client::Publisher;
 use serde::Serialize;
 
 use crate::error::{Result, RuntimeError};
+use crate::publisher::DdsSending;
 
 /// Messages waiting to be sent (with when each was queued), and whether the sender is
 /// to stop.
@@ -40,14 +41,15 @@ pub(crate) struct DeferredSender<M: Serialize + Send + Sync + 'static> {
 }
 
 impl<M: Serialize + Send + Sync + 'static> DeferredSender<M> {
-    /// Starts the thread that sends through `dds`, `nice` steps of nice below the
-    /// caller, keeping at most `depth` messages waiting; `topic` names it in messages.
+    /// Starts the thread that sends through `dds` as `sending` says (its nice steps
+    /// below the caller, at most its depth of messages waiting); `topic` names it in
+    /// messages.
     pub(crate) fn start(
         dds: Arc<Publisher<Arc<M>>>,
         topic: &str,
-        nice: u8,
-        depth: usize,
+        sending: DdsSending,
     ) -> Result<Self> {
+        let DdsSending { nice, depth } = sending;
         let shared = Arc::new(Shared {
             queue: Mutex::new(Queue {
                 waiting: VecDeque::new(),

@@ -58,12 +58,7 @@ impl<M: Serialize + Send + Sync + 'static> TopicPublisher<M> {
         let deferred = if latched {
             None
         } else {
-            Some(DeferredSender::start(
-                Arc::clone(&dds),
-                topic,
-                sending.nice,
-                sending.depth,
-            )?)
+            Some(DeferredSender::start(Arc::clone(&dds), topic, sending)?)
         };
         Ok(Self {
             dds,
