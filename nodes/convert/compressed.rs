@@ -19,11 +19,11 @@ use stereocal_msgs::sensor_msgs::{CompressedImage, Image};
 use stereocal_vision::channel_order::swap_red_blue;
 use thiserror::Error;
 use zune_jpeg::JpegDecoder;
-use zune_jpeg::zune_core::bytestream::ZCursor;
 use zune_jpeg::zune_core::colorspace::ColorSpace;
 use zune_jpeg::zune_core::options::DecoderOptions;
 
 use super::image::Encoding;
+use super::jpeg_input::JpegInput;
 
 /// Largest width or height decoded, pixels: larger is taken as damage, not an image.
 const MAX_SIDE: usize = 1 << 15;
@@ -240,11 +240,11 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
         .set_strict_mode(true);
     // An MJPEG frame without Huffman tables decodes with the standard ones.
     let data = super::mjpeg::with_standard_tables_marked(data);
-    let mut decoder = JpegDecoder::new_with_options(ZCursor::new(&*data), options);
-    decoder
+    let mut header = JpegDecoder::new_with_options(JpegInput::new(&data), options);
+    header
         .decode_headers()
         .map_err(|e| corrupt(Codec::Jpeg)(e.to_string()))?;
-    let grey = decoder.input_colorspace() == Some(ColorSpace::Luma);
+    let input = header.input_colorspace();
     let encoding = match original {
         Some(Encoding::Mono16) => {
             return Err(CompressedError::Unconvertible {
@@ -254,12 +254,10 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
             });
         }
         Some(encoding) => encoding,
-        None if grey => Encoding::Mono8,
+        None if input == Some(ColorSpace::Luma) => Encoding::Mono8,
         None => Encoding::Bgr8,
     };
-    // zune-jpeg converts colour to RGB and RGBA with SIMD, to BGR and BGRA without:
-    // RGB and a swap of red and blue is the faster way to BGR.
-    let (width, height) = decoder
+    let (width, height) = header
         .dimensions()
         .ok_or_else(|| corrupt(Codec::Jpeg)("no dimensions in the header".into()))?;
     let bytes = width * height * encoding.bytes_per_pixel();
@@ -268,12 +266,24 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
             "the header declares {width}x{height}, {bytes} bytes decoded: more than {MAX_BYTES}"
         )));
     }
-    let colorspace = match encoding {
-        Encoding::Mono8 => ColorSpace::Luma,
-        Encoding::Rgba8 | Encoding::Bgra8 => ColorSpace::RGBA,
-        _ => ColorSpace::RGB,
+    // zune-jpeg converts YCbCr to RGB, BGR, RGBA and BGRA with SIMD; other colour spaces
+    // become RGB or RGBA, and red and blue are swapped afterwards for BGR or BGRA.
+    let ycbcr = input == Some(ColorSpace::YCbCr);
+    let (colorspace, swap) = match encoding {
+        Encoding::Mono8 | Encoding::Mono16 => (ColorSpace::Luma, false),
+        Encoding::Rgb8 => (ColorSpace::RGB, false),
+        Encoding::Rgba8 => (ColorSpace::RGBA, false),
+        Encoding::Bgr8 if ycbcr => (ColorSpace::BGR, false),
+        Encoding::Bgra8 if ycbcr => (ColorSpace::BGRA, false),
+        Encoding::Bgr8 => (ColorSpace::RGB, true),
+        Encoding::Bgra8 => (ColorSpace::RGBA, true),
     };
-    decoder.set_options(options.jpeg_set_out_colorspace(colorspace));
+    // zune-jpeg chooses its colour conversion as it reads the header, so the decoder
+    // that decodes is given the output colour space before it reads anything.
+    let mut decoder = JpegDecoder::new_with_options(
+        JpegInput::new(&data),
+        options.jpeg_set_out_colorspace(colorspace),
+    );
     let mut pixels = decoder
         .decode()
         .map_err(|e| corrupt(Codec::Jpeg)(e.to_string()))?;
@@ -284,7 +294,7 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
             encoding.ros_name()
         )));
     }
-    if matches!(encoding, Encoding::Bgr8 | Encoding::Bgra8) {
+    if swap {
         swap_red_blue(&mut pixels, encoding.channels());
     }
     Ok((encoding, width, height, pixels))
@@ -442,17 +452,24 @@ mod tests {
         for (format, encoding) in [
             ("bgr8; jpeg compressed bgr8", "bgr8"),
             ("rgb8; jpeg compressed bgr8", "rgb8"),
+            ("rgba8; jpeg compressed bgr8", "rgba8"),
+            ("bgra8; jpeg compressed bgr8", "bgra8"),
             ("jpeg", "bgr8"),
             ("", "bgr8"),
         ] {
             let image = image_msg_from_compressed(&message(format, data.clone())).unwrap();
             assert_eq!(image.encoding, encoding, "{format}");
+            let channels = encoding.len() - 1;
+            assert_eq!(image.data.len(), rgb.len() / 3 * channels, "{format}");
             let worst = image
                 .data
-                .chunks_exact(3)
+                .chunks_exact(channels)
                 .zip(rgb.chunks_exact(3))
                 .map(|(got, want)| {
-                    let got = if encoding == "bgr8" {
+                    if channels == 4 {
+                        assert_eq!(got[3], 255, "{format}: alpha");
+                    }
+                    let got = if encoding.starts_with("bgr") {
                         [got[2], got[1], got[0]]
                     } else {
                         [got[0], got[1], got[2]]

@@ -10,6 +10,7 @@ mod camera_info;
 mod compress;
 mod compressed;
 mod image;
+mod jpeg_input;
 mod mjpeg;
 mod pose;
 
