@@ -240,11 +240,11 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
         .set_strict_mode(true);
     // An MJPEG frame without Huffman tables decodes with the standard ones.
     let data = super::mjpeg::with_standard_tables_marked(data);
-    let mut header = JpegDecoder::new_with_options(JpegInput::new(&data), options);
-    header
+    let mut decoder = JpegDecoder::new_with_options(JpegInput::new(&data), options);
+    decoder
         .decode_headers()
         .map_err(|e| corrupt(Codec::Jpeg)(e.to_string()))?;
-    let input = header.input_colorspace();
+    let input = decoder.input_colorspace();
     let encoding = match original {
         Some(Encoding::Mono16) => {
             return Err(CompressedError::Unconvertible {
@@ -257,7 +257,7 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
         None if input == Some(ColorSpace::Luma) => Encoding::Mono8,
         None => Encoding::Bgr8,
     };
-    let (width, height) = header
+    let (width, height) = decoder
         .dimensions()
         .ok_or_else(|| corrupt(Codec::Jpeg)("no dimensions in the header".into()))?;
     let bytes = width * height * encoding.bytes_per_pixel();
@@ -278,12 +278,7 @@ fn decode_jpeg(data: &[u8], original: Option<Encoding>) -> Result<Decoded, Compr
         Encoding::Bgr8 => (ColorSpace::RGB, true),
         Encoding::Bgra8 => (ColorSpace::RGBA, true),
     };
-    // zune-jpeg chooses its colour conversion as it reads the header, so the decoder
-    // that decodes is given the output colour space before it reads anything.
-    let mut decoder = JpegDecoder::new_with_options(
-        JpegInput::new(&data),
-        options.jpeg_set_out_colorspace(colorspace),
-    );
+    decoder.set_options(options.jpeg_set_out_colorspace(colorspace));
     let mut pixels = decoder
         .decode()
         .map_err(|e| corrupt(Codec::Jpeg)(e.to_string()))?;

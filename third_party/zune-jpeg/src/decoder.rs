@@ -337,6 +337,21 @@ where
     /// ```
     pub fn set_options(&mut self, options: DecoderOptions) {
         self.options = options;
+        // The output colour space may have changed after the headers were read.
+        self.choose_color_convert();
+    }
+
+    /// Chooses the YCbCr conversion for the output colour space the options name.
+    fn choose_color_convert(&mut self) {
+        let out_colorspace = self.options.jpeg_get_out_colorspace();
+
+        if matches!(
+            out_colorspace,
+            ColorSpace::BGR | ColorSpace::BGRA | ColorSpace::RGB | ColorSpace::RGBA
+        ) {
+            self.color_convert_16 =
+                choose_ycbcr_to_rgb_convert_func(out_colorspace, &self.options).unwrap();
+        }
     }
     fn reassemble_extended_xmp(&mut self) {
         if self.extended_xmp_segments.is_empty() {
@@ -405,24 +420,7 @@ where
             return Ok(());
         }
 
-        // match output colorspace here
-        // we know this will only be called once per image
-        // so makes sense
-        // We only care for ycbcr to rgb/rgba here
-        // in case one is using another colorspace.
-        // May god help you
-        let out_colorspace = self.options.jpeg_get_out_colorspace();
-
-        if matches!(
-            out_colorspace,
-            ColorSpace::BGR | ColorSpace::BGRA | ColorSpace::RGB | ColorSpace::RGBA
-        ) {
-            self.color_convert_16 = choose_ycbcr_to_rgb_convert_func(
-                self.options.jpeg_get_out_colorspace(),
-                &self.options
-            )
-            .unwrap();
-        }
+        self.choose_color_convert();
         // First two bytes should be jpeg soi marker
         let magic_bytes = self.stream.get_u16_be_err()?;
 
